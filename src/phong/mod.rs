@@ -1,0 +1,1 @@
+//! Phong tessellation patches and their ray intersectors (pure Rust, no FFI).

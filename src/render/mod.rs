@@ -1,0 +1,1 @@
+//! A thin renderer on top of Embree.

@@ -1,0 +1,1 @@
+//! Scene input: OBJ/MTL loading, welding, vertex normals, generated meshes.
