@@ -1,2 +1,8 @@
-//! Embree 4: bindings, RAII wrappers, user-geometry callbacks.
+//! Embree 4: bindings generated against the installed headers, RAII wrappers, and (in
+//! [`phong_geometry`]) Phong patches as user geometry. All of the crate's `unsafe` lives here.
+pub mod device;
+pub mod scene;
 pub mod sys;
+
+pub use device::{header_version, set_flush_denormals, Device, EmbreeError, MAX_INSTANCE_LEVEL_COUNT};
+pub use scene::{new_query_context, GeometryOptions, Hit, Ray, Scene};

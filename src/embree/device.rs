@@ -1,0 +1,242 @@
+//! The Embree device: creation from a config string, errors as Rust values, properties.
+
+use std::ffi::{c_char, c_void, CStr, CString};
+use std::sync::atomic::{AtomicI64, Ordering};
+use std::sync::{Arc, Mutex};
+
+use super::sys;
+
+/// An error reported by Embree (through the device's error callback) or by this wrapper.
+#[derive(Debug, Clone, thiserror::Error)]
+pub enum EmbreeError {
+    /// Embree reported an error code with a message.
+    #[error("Embree: {kind}: {message}")]
+    Device { kind: &'static str, message: String },
+    /// The device config string contains a NUL byte.
+    #[error("Embree device config {0:?} contains a NUL byte")]
+    Config(String),
+    /// A null handle came back without an error code.
+    #[error("Embree returned no {0} and reported no error")]
+    Null(&'static str),
+    /// Input that Embree would silently misuse.
+    #[error("{0}")]
+    Invalid(String),
+}
+
+pub(crate) fn error_kind(code: sys::RTCError) -> &'static str {
+    match code {
+        sys::RTCError::RTC_ERROR_NONE => "no error",
+        sys::RTCError::RTC_ERROR_INVALID_ARGUMENT => "invalid argument",
+        sys::RTCError::RTC_ERROR_INVALID_OPERATION => "invalid operation",
+        sys::RTCError::RTC_ERROR_OUT_OF_MEMORY => "out of memory",
+        sys::RTCError::RTC_ERROR_UNSUPPORTED_CPU => "unsupported CPU",
+        sys::RTCError::RTC_ERROR_CANCELLED => "cancelled",
+        _ => "unknown error",
+    }
+}
+
+/// What the error and memory-monitor callbacks write into; owned by the device handle, so
+/// it outlives every callback Embree can make on that device.
+#[derive(Default)]
+struct DeviceState {
+    /// The first error message since the last [`Device::check`].
+    last_error: Mutex<Option<(sys::RTCError, String)>>,
+    /// Bytes Embree reports as allocated (memory monitor callback).
+    bytes: AtomicI64,
+    peak: AtomicI64,
+}
+
+struct DeviceHandle {
+    raw: sys::RTCDevice,
+    state: Box<DeviceState>,
+}
+
+// SAFETY: Embree devices are thread-safe objects ("all API calls of a device are thread safe
+// unless stated otherwise", Embree API docs, rtcNewDevice); the state is Sync itself.
+unsafe impl Send for DeviceHandle {}
+// SAFETY: see Send.
+unsafe impl Sync for DeviceHandle {}
+
+impl Drop for DeviceHandle {
+    fn drop(&mut self) {
+        // SAFETY: `raw` came from rtcNewDevice and this is the only release of our reference;
+        // scenes hold their own `Device` clone, so no scene outlives this call's device use.
+        unsafe { sys::rtcReleaseDevice(self.raw) };
+    }
+}
+
+/// An Embree device. Cheap to clone (shared handle).
+#[derive(Clone)]
+pub struct Device {
+    inner: Arc<DeviceHandle>,
+}
+
+unsafe extern "C" fn error_callback(user: *mut c_void, code: sys::RTCError, msg: *const c_char) {
+    // No panic may unwind into Embree.
+    let _ = std::panic::catch_unwind(|| {
+        let message = if msg.is_null() {
+            String::new()
+        } else {
+            // SAFETY: Embree passes a NUL-terminated message valid for the duration of the call
+            // (rtcSetDeviceErrorFunction docs).
+            unsafe { CStr::from_ptr(msg) }.to_string_lossy().into_owned()
+        };
+        // SAFETY: `user` is the `DeviceState` we registered; it lives in a Box owned by the
+        // device handle, which outlives the device's callbacks (released in Drop after use).
+        let state = unsafe { &*(user as *const DeviceState) };
+        if let Ok(mut slot) = state.last_error.lock() {
+            if slot.is_none() {
+                *slot = Some((code, message));
+            }
+        }
+    });
+}
+
+unsafe extern "C" fn memory_callback(user: *mut c_void, bytes: isize, _post: bool) -> bool {
+    let _ = std::panic::catch_unwind(|| {
+        // SAFETY: as in `error_callback`, `user` is our Box<DeviceState>, alive while the device is.
+        let state = unsafe { &*(user as *const DeviceState) };
+        let now = state.bytes.fetch_add(bytes as i64, Ordering::Relaxed) + bytes as i64;
+        state.peak.fetch_max(now, Ordering::Relaxed);
+    });
+    true
+}
+
+impl Device {
+    /// A device with Embree's default configuration.
+    pub fn new() -> Result<Self, EmbreeError> {
+        Self::with_config("")
+    }
+
+    /// A device from an Embree config string (e.g. `"threads=1,verbose=0"`).
+    pub fn with_config(config: &str) -> Result<Self, EmbreeError> {
+        let c = CString::new(config).map_err(|_| EmbreeError::Config(config.to_string()))?;
+        // SAFETY: `c` is a valid NUL-terminated string for the duration of the call; rtcNewDevice
+        // copies what it needs (rtcNewDevice docs).
+        let raw = unsafe { sys::rtcNewDevice(c.as_ptr()) };
+        if raw.is_null() {
+            // SAFETY: rtcGetDeviceError accepts NULL and then returns the thread-local error of
+            // the failed device creation (rtcGetDeviceError docs).
+            let code = unsafe { sys::rtcGetDeviceError(std::ptr::null_mut()) };
+            return Err(EmbreeError::Device {
+                kind: error_kind(code),
+                message: format!("cannot create device with config {config:?}"),
+            });
+        }
+        let state = Box::<DeviceState>::default();
+        let user = &*state as *const DeviceState as *mut c_void;
+        // SAFETY: `raw` is a live device; `user` points into a Box that lives in the handle as
+        // long as the device (dropped after rtcReleaseDevice); the callbacks catch all panics.
+        unsafe {
+            sys::rtcSetDeviceErrorFunction(raw, Some(error_callback), user);
+            sys::rtcSetDeviceMemoryMonitorFunction(raw, Some(memory_callback), user);
+        }
+        Ok(Device { inner: Arc::new(DeviceHandle { raw, state }) })
+    }
+
+    pub(crate) fn raw(&self) -> sys::RTCDevice {
+        self.inner.raw
+    }
+
+    /// Turn a pending Embree error (if any) into `Err`.
+    pub fn check(&self) -> Result<(), EmbreeError> {
+        // SAFETY: the device is live for as long as `self` is.
+        let code = unsafe { sys::rtcGetDeviceError(self.raw()) };
+        let stored = self.inner.state.last_error.lock().ok().and_then(|mut s| s.take());
+        if code == sys::RTCError::RTC_ERROR_NONE && stored.is_none() {
+            return Ok(());
+        }
+        let (code, message) = stored.unwrap_or((code, String::new()));
+        Err(EmbreeError::Device { kind: error_kind(code), message })
+    }
+
+    fn property(&self, p: sys::RTCDeviceProperty) -> isize {
+        // SAFETY: the device is live; reading a property has no other precondition.
+        unsafe { sys::rtcGetDeviceProperty(self.raw(), p) }
+    }
+
+    /// The runtime's version as (major, minor, patch).
+    pub fn version(&self) -> (u32, u32, u32) {
+        use sys::RTCDeviceProperty as P;
+        (
+            self.property(P::RTC_DEVICE_PROPERTY_VERSION_MAJOR) as u32,
+            self.property(P::RTC_DEVICE_PROPERTY_VERSION_MINOR) as u32,
+            self.property(P::RTC_DEVICE_PROPERTY_VERSION_PATCH) as u32,
+        )
+    }
+
+    /// The widest native ray packet (4, 8 or 16), which tells the ISA Embree selected:
+    /// 4 = SSE, 8 = AVX/AVX2, 16 = AVX-512.
+    pub fn native_packet_width(&self) -> u32 {
+        use sys::RTCDeviceProperty as P;
+        if self.property(P::RTC_DEVICE_PROPERTY_NATIVE_RAY16_SUPPORTED) != 0 {
+            16
+        } else if self.property(P::RTC_DEVICE_PROPERTY_NATIVE_RAY8_SUPPORTED) != 0 {
+            8
+        } else {
+            4
+        }
+    }
+
+    /// A short description of the ISA in use, from the native packet width and the CPU.
+    pub fn isa(&self) -> String {
+        match self.native_packet_width() {
+            16 => "AVX-512".into(),
+            8 => {
+                #[cfg(target_arch = "x86_64")]
+                if std::arch::is_x86_feature_detected!("avx2") {
+                    return "AVX2".into();
+                }
+                "AVX".into()
+            }
+            _ => {
+                if cfg!(target_arch = "aarch64") {
+                    "NEON".into()
+                } else {
+                    "SSE4.2".into()
+                }
+            }
+        }
+    }
+
+    /// Whether the library was built with user-geometry and filter support.
+    pub fn supports_user_geometry(&self) -> bool {
+        use sys::RTCDeviceProperty as P;
+        self.property(P::RTC_DEVICE_PROPERTY_USER_GEOMETRY_SUPPORTED) != 0
+            && self.property(P::RTC_DEVICE_PROPERTY_FILTER_FUNCTION_SUPPORTED) != 0
+    }
+
+    /// Bytes Embree currently holds (memory monitor), and the peak since creation.
+    pub fn memory_bytes(&self) -> (i64, i64) {
+        let s = &self.inner.state;
+        (s.bytes.load(Ordering::Relaxed), s.peak.load(Ordering::Relaxed))
+    }
+}
+
+/// The instance level count of the headers we were built against (the hit layout depends on it).
+pub const MAX_INSTANCE_LEVEL_COUNT: usize = sys::RTC_MAX_INSTANCE_LEVEL_COUNT as usize;
+
+/// The Embree version of the headers we were built against.
+pub fn header_version() -> &'static str {
+    // The constant is a NUL-terminated ASCII string.
+    std::str::from_utf8(&sys::RTC_VERSION_STRING[..sys::RTC_VERSION_STRING.len() - 1]).unwrap_or("?")
+}
+
+/// Set flush-to-zero and denormals-are-zero on the calling thread, as Embree recommends for
+/// every thread that traces rays (denormals slow traversal down severely).
+pub fn set_flush_denormals() {
+    #[cfg(target_arch = "x86_64")]
+    {
+        #[allow(deprecated)]
+        use std::arch::x86_64::{_mm_getcsr, _mm_setcsr};
+        const FTZ: u32 = 1 << 15;
+        const DAZ: u32 = 1 << 6;
+        // SAFETY: reading and writing MXCSR is always valid on x86_64 (SSE2 is baseline); setting
+        // FTZ/DAZ only changes denormal handling of this thread, which is what Embree asks for
+        // ("Embree FAQ: set the FTZ and DAZ flags ... on every thread").
+        #[allow(deprecated)]
+        unsafe {
+            _mm_setcsr(_mm_getcsr() | FTZ | DAZ)
+        };
+    }
+}

@@ -1,0 +1,389 @@
+//! Scenes, triangle geometry, instances, and ray queries (single rays and 4/8/16 packets).
+
+use std::any::Any;
+use std::sync::Arc;
+
+use glam::{Mat4, Vec3};
+
+use super::device::{Device, EmbreeError, MAX_INSTANCE_LEVEL_COUNT};
+use super::sys;
+
+/// A ray with its valid interval `(tnear, tfar)`; `mask` is tested against geometry masks.
+#[derive(Clone, Copy, Debug, PartialEq)]
+pub struct Ray {
+    pub org: Vec3,
+    pub dir: Vec3,
+    pub tnear: f32,
+    pub tfar: f32,
+    pub mask: u32,
+    pub time: f32,
+}
+
+impl Ray {
+    /// A ray over `(0, inf)` that sees every geometry (mask -1: Embree's default geometry mask is 1).
+    pub fn new(org: Vec3, dir: Vec3) -> Self {
+        Ray { org, dir, tnear: 0.0, tfar: f32::INFINITY, mask: u32::MAX, time: 0.0 }
+    }
+
+    /// The same ray over `(tnear, tfar)`.
+    pub fn with_range(mut self, tnear: f32, tfar: f32) -> Self {
+        self.tnear = tnear;
+        self.tfar = tfar;
+        self
+    }
+
+    /// The point at parameter `t`.
+    pub fn at(&self, t: f32) -> Vec3 {
+        self.org + t * self.dir
+    }
+
+    pub(crate) fn to_sys(self) -> sys::RTCRay {
+        sys::RTCRay {
+            org_x: self.org.x,
+            org_y: self.org.y,
+            org_z: self.org.z,
+            tnear: self.tnear,
+            dir_x: self.dir.x,
+            dir_y: self.dir.y,
+            dir_z: self.dir.z,
+            time: self.time,
+            tfar: self.tfar,
+            mask: self.mask,
+            id: 0,
+            flags: 0,
+        }
+    }
+}
+
+/// The nearest hit of a ray, as Embree reports it.
+#[derive(Clone, Copy, Debug, PartialEq)]
+pub struct Hit {
+    pub t: f32,
+    /// Unnormalised geometric normal (for Phong geometry: the true surface normal).
+    pub ng: Vec3,
+    pub u: f32,
+    pub v: f32,
+    pub prim_id: u32,
+    pub geom_id: u32,
+    /// Instance IDs from the outermost level; `u32::MAX` where unused.
+    pub inst_id: [u32; MAX_INSTANCE_LEVEL_COUNT],
+}
+
+pub(crate) fn empty_rayhit(ray: Ray) -> sys::RTCRayHit {
+    sys::RTCRayHit {
+        ray: ray.to_sys(),
+        hit: sys::RTCHit {
+            geomID: sys::RTC_INVALID_GEOMETRY_ID,
+            primID: sys::RTC_INVALID_GEOMETRY_ID,
+            instID: [sys::RTC_INVALID_GEOMETRY_ID; MAX_INSTANCE_LEVEL_COUNT],
+            instPrimID: [sys::RTC_INVALID_GEOMETRY_ID; MAX_INSTANCE_LEVEL_COUNT],
+            ..Default::default()
+        },
+    }
+}
+
+pub(crate) fn hit_of(rh: &sys::RTCRayHit) -> Option<Hit> {
+    (rh.hit.geomID != sys::RTC_INVALID_GEOMETRY_ID).then(|| Hit {
+        t: rh.ray.tfar,
+        ng: Vec3::new(rh.hit.Ng_x, rh.hit.Ng_y, rh.hit.Ng_z),
+        u: rh.hit.u,
+        v: rh.hit.v,
+        prim_id: rh.hit.primID,
+        geom_id: rh.hit.geomID,
+        inst_id: rh.hit.instID,
+    })
+}
+
+/// A ray query context with an empty instance stack (`rtcInitRayQueryContext` is an inline
+/// function of the header, so it is rewritten here).
+pub fn new_query_context() -> sys::RTCRayQueryContext {
+    sys::RTCRayQueryContext {
+        instID: [sys::RTC_INVALID_GEOMETRY_ID; MAX_INSTANCE_LEVEL_COUNT],
+        instPrimID: [sys::RTC_INVALID_GEOMETRY_ID; MAX_INSTANCE_LEVEL_COUNT],
+    }
+}
+
+struct SceneHandle {
+    raw: sys::RTCScene,
+    device: Device,
+    /// Data that Embree geometry points into (user-geometry data, instanced child scenes):
+    /// dropped only after the scene is released.
+    keep_alive: Vec<Box<dyn Any + Send + Sync>>,
+}
+
+// SAFETY: Embree scenes may be queried from any number of threads at once after commit
+// ("rtcIntersect*/rtcOccluded* are thread safe", Embree API docs); mutation goes through
+// `&mut Scene`, which Rust makes exclusive.
+unsafe impl Send for SceneHandle {}
+// SAFETY: see Send.
+unsafe impl Sync for SceneHandle {}
+
+impl Drop for SceneHandle {
+    fn drop(&mut self) {
+        // SAFETY: `raw` came from rtcNewScene; this releases our only reference. Geometry data
+        // in `keep_alive` is dropped after this (field order), so Embree never sees it freed.
+        unsafe { sys::rtcReleaseScene(self.raw) };
+    }
+}
+
+/// An Embree scene: attach geometry, commit, then trace rays from any thread.
+pub struct Scene {
+    inner: Arc<SceneHandle>,
+    committed: bool,
+}
+
+/// Options for a triangle mesh.
+#[derive(Clone, Copy, Debug)]
+pub struct GeometryOptions {
+    /// Geometry mask (Embree's default is 1; our rays use -1).
+    pub mask: u32,
+}
+
+impl Default for GeometryOptions {
+    fn default() -> Self {
+        GeometryOptions { mask: u32::MAX }
+    }
+}
+
+impl Scene {
+    /// An empty scene on `device`.
+    pub fn new(device: &Device) -> Result<Self, EmbreeError> {
+        // SAFETY: the device is live (held by `device`, and by the scene handle from now on).
+        let raw = unsafe { sys::rtcNewScene(device.raw()) };
+        device.check()?;
+        if raw.is_null() {
+            return Err(EmbreeError::Null("scene"));
+        }
+        Ok(Scene {
+            inner: Arc::new(SceneHandle { raw, device: device.clone(), keep_alive: Vec::new() }),
+            committed: false,
+        })
+    }
+
+    /// The device this scene lives on.
+    pub fn device(&self) -> &Device {
+        &self.inner.device
+    }
+
+    /// The raw handle, for callers mixing this scene with their own Embree code. It stays valid
+    /// while `self` lives.
+    pub fn raw(&self) -> sys::RTCScene {
+        self.inner.raw
+    }
+
+    fn handle_mut(&mut self) -> Result<&mut SceneHandle, EmbreeError> {
+        self.committed = false;
+        Arc::get_mut(&mut self.inner).ok_or_else(|| {
+            EmbreeError::Invalid("a scene that is instanced elsewhere cannot be changed".into())
+        })
+    }
+
+    /// Keep `data` alive as long as the scene (for geometry that points into it).
+    pub(crate) fn keep_alive(&mut self, data: Box<dyn Any + Send + Sync>) -> Result<(), EmbreeError> {
+        self.handle_mut()?.keep_alive.push(data);
+        Ok(())
+    }
+
+    /// Attach a committed raw geometry, releasing our reference to it; returns its geomID.
+    pub(crate) fn attach_raw(&mut self, geom: sys::RTCGeometry) -> Result<u32, EmbreeError> {
+        let raw = self.handle_mut()?.raw;
+        // SAFETY: `geom` is a live, committed geometry of this scene's device; attaching
+        // retains it, so releasing our reference afterwards leaves the scene's (rtcAttachGeometry docs).
+        let id = unsafe {
+            let id = sys::rtcAttachGeometry(raw, geom);
+            sys::rtcReleaseGeometry(geom);
+            id
+        };
+        self.device().check()?;
+        Ok(id)
+    }
+
+    /// Attach a triangle mesh (copied into Embree-owned buffers); returns its geomID.
+    pub fn attach_triangles(
+        &mut self,
+        positions: &[Vec3],
+        indices: &[[u32; 3]],
+        options: GeometryOptions,
+    ) -> Result<u32, EmbreeError> {
+        if let Some(bad) = indices.iter().flatten().find(|&&i| i as usize >= positions.len()) {
+            return Err(EmbreeError::Invalid(format!(
+                "triangle index {bad} out of range for {} vertices",
+                positions.len()
+            )));
+        }
+        let device = self.device().clone();
+        // SAFETY: the device is live. Buffers are allocated by Embree with room for 16 bytes of
+        // padding after the last vertex (the docs require the last float3 to be readable with a
+        // 16-byte load), filled through the pointer rtcGetBufferData returns for exactly that
+        // many bytes, and bound before the geometry is committed (rtcSetGeometryBuffer docs).
+        let geom = unsafe {
+            let geom = sys::rtcNewGeometry(device.raw(), sys::RTCGeometryType::RTC_GEOMETRY_TYPE_TRIANGLE);
+            device.check()?;
+            let vbytes = positions.len() * 12;
+            let vbuf = sys::rtcNewBuffer(device.raw(), vbytes + 16);
+            device.check()?;
+            let vptr = sys::rtcGetBufferData(vbuf) as *mut f32;
+            for (i, p) in positions.iter().enumerate() {
+                vptr.add(3 * i).write(p.x);
+                vptr.add(3 * i + 1).write(p.y);
+                vptr.add(3 * i + 2).write(p.z);
+            }
+            sys::rtcSetGeometryBuffer(
+                geom,
+                sys::RTCBufferType::RTC_BUFFER_TYPE_VERTEX,
+                0,
+                sys::RTCFormat::RTC_FORMAT_FLOAT3,
+                vbuf,
+                0,
+                12,
+                positions.len(),
+            );
+            sys::rtcReleaseBuffer(vbuf);
+            let ibuf = sys::rtcNewBuffer(device.raw(), indices.len() * 12 + 16);
+            device.check()?;
+            let iptr = sys::rtcGetBufferData(ibuf) as *mut u32;
+            for (i, t) in indices.iter().enumerate() {
+                for (k, &idx) in t.iter().enumerate() {
+                    iptr.add(3 * i + k).write(idx);
+                }
+            }
+            sys::rtcSetGeometryBuffer(
+                geom,
+                sys::RTCBufferType::RTC_BUFFER_TYPE_INDEX,
+                0,
+                sys::RTCFormat::RTC_FORMAT_UINT3,
+                ibuf,
+                0,
+                12,
+                indices.len(),
+            );
+            sys::rtcReleaseBuffer(ibuf);
+            sys::rtcSetGeometryMask(geom, options.mask);
+            sys::rtcCommitGeometry(geom);
+            geom
+        };
+        device.check()?;
+        self.attach_raw(geom)
+    }
+
+    /// Attach an instance of `child` (which must be committed) with `transform` (object to
+    /// world); returns its geomID (the instID hits inside it report).
+    pub fn attach_instance(&mut self, child: &Scene, transform: Mat4, mask: u32) -> Result<u32, EmbreeError> {
+        if !child.committed {
+            return Err(EmbreeError::Invalid("an instanced scene must be committed first".into()));
+        }
+        let device = self.device().clone();
+        let cols = transform.to_cols_array();
+        // SAFETY: `child.raw()` is a live committed scene; we keep a reference to its handle
+        // below so it outlives this scene. The transform is 16 floats in column-major order,
+        // matching RTC_FORMAT_FLOAT4X4_COLUMN_MAJOR, and Embree copies it (rtcSetGeometryTransform docs).
+        let geom = unsafe {
+            let geom = sys::rtcNewGeometry(device.raw(), sys::RTCGeometryType::RTC_GEOMETRY_TYPE_INSTANCE);
+            device.check()?;
+            sys::rtcSetGeometryInstancedScene(geom, child.raw());
+            sys::rtcSetGeometryTransform(
+                geom,
+                0,
+                sys::RTCFormat::RTC_FORMAT_FLOAT4X4_COLUMN_MAJOR,
+                cols.as_ptr() as *const std::ffi::c_void,
+            );
+            sys::rtcSetGeometryMask(geom, mask);
+            sys::rtcCommitGeometry(geom);
+            geom
+        };
+        device.check()?;
+        self.keep_alive(Box::new(child.inner.clone()))?;
+        self.attach_raw(geom)
+    }
+
+    /// Build the BVH. Queries need a committed scene.
+    pub fn commit(&mut self) -> Result<(), EmbreeError> {
+        // SAFETY: the scene is live and not being traced (we hold `&mut self`).
+        unsafe { sys::rtcCommitScene(self.inner.raw) };
+        self.device().check()?;
+        self.committed = true;
+        Ok(())
+    }
+
+    /// Whether the scene is committed.
+    pub fn is_committed(&self) -> bool {
+        self.committed
+    }
+
+    /// Bounds of the committed scene.
+    pub fn bounds(&self) -> (Vec3, Vec3) {
+        let mut b = sys::RTCBounds::default();
+        // SAFETY: the scene is live; `b` is a properly aligned RTCBounds to write into.
+        unsafe { sys::rtcGetSceneBounds(self.inner.raw, &mut b) };
+        (Vec3::new(b.lower_x, b.lower_y, b.lower_z), Vec3::new(b.upper_x, b.upper_y, b.upper_z))
+    }
+
+    fn assert_committed(&self) {
+        // Tracing an uncommitted scene is an Embree error that would otherwise be silent.
+        debug_assert!(self.committed, "trace on an uncommitted scene");
+    }
+
+    /// The nearest hit along `ray` in `(tnear, tfar)`.
+    pub fn intersect1(&self, ray: Ray) -> Option<Hit> {
+        if !self.committed {
+            return None;
+        }
+        let mut rh = empty_rayhit(ray);
+        self.intersect1_raw(&mut rh, None);
+        hit_of(&rh)
+    }
+
+    /// Whether anything blocks `ray` in `(tnear, tfar)`.
+    pub fn occluded1(&self, ray: Ray) -> bool {
+        if !self.committed {
+            return false;
+        }
+        let mut r = ray.to_sys();
+        // SAFETY: the scene is committed and live; `r` is a valid RTCRay; NULL arguments select
+        // Embree's defaults (rtcOccluded1 docs).
+        unsafe { sys::rtcOccluded1(self.inner.raw, &mut r, std::ptr::null_mut()) };
+        r.tfar == f32::NEG_INFINITY
+    }
+
+    /// `rtcIntersect1` on a raw ray-hit with optional arguments (context, filter, flags).
+    pub fn intersect1_raw(&self, rayhit: &mut sys::RTCRayHit, args: Option<&mut sys::RTCIntersectArguments>) {
+        self.assert_committed();
+        let args = args.map_or(std::ptr::null_mut(), |a| a as *mut _);
+        // SAFETY: the scene is live and committed; `rayhit` is a valid exclusive RTCRayHit;
+        // `args` is NULL or a valid RTCIntersectArguments whose context (if any) outlives the call.
+        unsafe { sys::rtcIntersect1(self.inner.raw, rayhit, args) };
+    }
+
+    /// `rtcOccluded1` on a raw ray with optional arguments.
+    pub fn occluded1_raw(&self, ray: &mut sys::RTCRay, args: Option<&mut sys::RTCOccludedArguments>) {
+        self.assert_committed();
+        let args = args.map_or(std::ptr::null_mut(), |a| a as *mut _);
+        // SAFETY: as in `intersect1_raw`.
+        unsafe { sys::rtcOccluded1(self.inner.raw, ray, args) };
+    }
+}
+
+macro_rules! packet_queries {
+    ($isect:ident, $occl:ident, $n:literal, $rayhit:ty, $ray:ty, $fi:ident, $fo:ident) => {
+        impl Scene {
+            #[doc = concat!("`rtcIntersect", stringify!($n), "`: lanes with `valid[i] == -1` are traced.")]
+            pub fn $isect(&self, valid: &[i32; $n], rayhit: &mut $rayhit, args: Option<&mut sys::RTCIntersectArguments>) {
+                self.assert_committed();
+                let args = args.map_or(std::ptr::null_mut(), |a| a as *mut _);
+                // SAFETY: the scene is live and committed; `valid` has N lanes; `rayhit` is the
+                // bindgen type with Embree's required alignment (repr(align) in the bindings).
+                unsafe { sys::$fi(valid.as_ptr(), self.inner.raw, rayhit, args) };
+            }
+            #[doc = concat!("`rtcOccluded", stringify!($n), "`: occluded lanes get `tfar = -inf`.")]
+            pub fn $occl(&self, valid: &[i32; $n], ray: &mut $ray, args: Option<&mut sys::RTCOccludedArguments>) {
+                self.assert_committed();
+                let args = args.map_or(std::ptr::null_mut(), |a| a as *mut _);
+                // SAFETY: as for the intersect variant.
+                unsafe { sys::$fo(valid.as_ptr(), self.inner.raw, ray, args) };
+            }
+        }
+    };
+}
+packet_queries!(intersect4, occluded4, 4, sys::RTCRayHit4, sys::RTCRay4, rtcIntersect4, rtcOccluded4);
+packet_queries!(intersect8, occluded8, 8, sys::RTCRayHit8, sys::RTCRay8, rtcIntersect8, rtcOccluded8);
+packet_queries!(intersect16, occluded16, 16, sys::RTCRayHit16, sys::RTCRay16, rtcIntersect16, rtcOccluded16);

@@ -1,0 +1,82 @@
+//! The Embree layer on its own: device, triangles, instances, packets, masks.
+use glam::{Mat4, Vec3};
+use phongrt::embree::{Device, GeometryOptions, Ray, Scene};
+
+fn unit_triangle_scene(device: &Device, mask: u32) -> Scene {
+    let mut scene = Scene::new(device).unwrap();
+    let p = [Vec3::ZERO, Vec3::X, Vec3::Y];
+    scene.attach_triangles(&p, &[[0, 1, 2]], GeometryOptions { mask }).unwrap();
+    scene.commit().unwrap();
+    scene
+}
+
+#[test]
+fn device_reports_embree_4_with_user_geometry() {
+    let device = Device::new().unwrap();
+    let (major, _, _) = device.version();
+    assert_eq!(major, 4);
+    assert!(device.supports_user_geometry());
+    assert!([4, 8, 16].contains(&device.native_packet_width()));
+}
+
+#[test]
+fn bad_config_is_an_error_not_a_panic() {
+    assert!(Device::with_config("threads=1\0").is_err());
+}
+
+#[test]
+fn triangle_hit_matches_embree_convention() {
+    let device = Device::new().unwrap();
+    let scene = unit_triangle_scene(&device, u32::MAX);
+    let hit = scene
+        .intersect1(Ray::new(Vec3::new(0.2, 0.3, 1.0), Vec3::new(0.0, 0.0, -2.0)))
+        .expect("hit");
+    assert!((hit.t - 0.5).abs() < 1e-6);
+    // (1-u-v) v0 + u v1 + v v2 = (u, v, 0)
+    assert!((hit.u - 0.2).abs() < 1e-6 && (hit.v - 0.3).abs() < 1e-6);
+    assert_eq!((hit.prim_id, hit.geom_id), (0, 0));
+    assert!(hit.ng.normalize().dot(Vec3::Z).abs() > 0.999);
+    // tnear/tfar honoured.
+    let r = Ray::new(Vec3::new(0.2, 0.3, 1.0), Vec3::new(0.0, 0.0, -2.0));
+    assert!(scene.intersect1(r.with_range(0.0, 0.49)).is_none());
+    assert!(scene.intersect1(r.with_range(0.51, 10.0)).is_none());
+    assert!(scene.occluded1(r));
+    assert!(!scene.occluded1(r.with_range(0.0, 0.49)));
+    assert!(scene.intersect1(Ray::new(Vec3::new(0.8, 0.8, 1.0), -Vec3::Z)).is_none());
+}
+
+#[test]
+fn geometry_mask_is_honoured() {
+    let device = Device::new().unwrap();
+    let scene = unit_triangle_scene(&device, 0b10);
+    let mut r = Ray::new(Vec3::new(0.2, 0.3, 1.0), -Vec3::Z);
+    r.mask = 0b01;
+    assert!(scene.intersect1(r).is_none());
+    r.mask = 0b10;
+    assert!(scene.intersect1(r).is_some());
+}
+
+#[test]
+fn instance_reports_inst_id_and_transforms() {
+    let device = Device::new().unwrap();
+    let child = unit_triangle_scene(&device, u32::MAX);
+    let mut top = Scene::new(&device).unwrap();
+    let id = top
+        .attach_instance(&child, Mat4::from_translation(Vec3::new(10.0, 0.0, 0.0)), u32::MAX)
+        .unwrap();
+    top.commit().unwrap();
+    assert!(top.intersect1(Ray::new(Vec3::new(0.2, 0.3, 1.0), -Vec3::Z)).is_none());
+    let hit = top.intersect1(Ray::new(Vec3::new(10.2, 0.3, 1.0), -Vec3::Z)).expect("hit");
+    assert_eq!(hit.inst_id[0], id);
+    assert!((hit.u - 0.2).abs() < 1e-5);
+}
+
+#[test]
+fn out_of_range_index_is_refused() {
+    let device = Device::new().unwrap();
+    let mut scene = Scene::new(&device).unwrap();
+    let err = scene
+        .attach_triangles(&[Vec3::ZERO], &[[0, 1, 2]], GeometryOptions::default())
+        .unwrap_err();
+    assert!(err.to_string().contains("out of range"));
+}
