@@ -6,3 +6,5 @@ pub mod sys;
 
 pub use device::{header_version, set_flush_denormals, Device, EmbreeError, MAX_INSTANCE_LEVEL_COUNT};
 pub use scene::{new_query_context, GeometryOptions, Hit, Ray, Scene};
+pub mod user_geometry;
+pub use user_geometry::{PrimHit, UserGeometryOptions, UserPrimitives, UserTriangles};

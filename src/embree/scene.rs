@@ -363,6 +363,11 @@ impl Scene {
     }
 }
 
+/// A packet valid mask with the alignment Embree requires (16, 32, 64 bytes for 4, 8, 16
+/// lanes; 64 covers all).
+#[repr(C, align(64))]
+struct AlignedValid<const N: usize>([i32; N]);
+
 macro_rules! packet_queries {
     ($isect:ident, $occl:ident, $n:literal, $rayhit:ty, $ray:ty, $fi:ident, $fo:ident) => {
         impl Scene {
@@ -370,16 +375,19 @@ macro_rules! packet_queries {
             pub fn $isect(&self, valid: &[i32; $n], rayhit: &mut $rayhit, args: Option<&mut sys::RTCIntersectArguments>) {
                 self.assert_committed();
                 let args = args.map_or(std::ptr::null_mut(), |a| a as *mut _);
-                // SAFETY: the scene is live and committed; `valid` has N lanes; `rayhit` is the
-                // bindgen type with Embree's required alignment (repr(align) in the bindings).
-                unsafe { sys::$fi(valid.as_ptr(), self.inner.raw, rayhit, args) };
+                let valid = AlignedValid(*valid);
+                // SAFETY: the scene is live and committed; `valid` has N lanes and the alignment
+                // rtcIntersectN requires (N*4 bytes); `rayhit` is the bindgen type with Embree's
+                // required alignment (repr(align) in the bindings).
+                unsafe { sys::$fi(valid.0.as_ptr(), self.inner.raw, rayhit, args) };
             }
             #[doc = concat!("`rtcOccluded", stringify!($n), "`: occluded lanes get `tfar = -inf`.")]
             pub fn $occl(&self, valid: &[i32; $n], ray: &mut $ray, args: Option<&mut sys::RTCOccludedArguments>) {
                 self.assert_committed();
                 let args = args.map_or(std::ptr::null_mut(), |a| a as *mut _);
+                let valid = AlignedValid(*valid);
                 // SAFETY: as for the intersect variant.
-                unsafe { sys::$fo(valid.as_ptr(), self.inner.raw, ray, args) };
+                unsafe { sys::$fo(valid.0.as_ptr(), self.inner.raw, ray, args) };
             }
         }
     };

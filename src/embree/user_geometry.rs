@@ -1,0 +1,399 @@
+//! Embree user geometry from a Rust primitive set: bounds, intersect and occluded callbacks
+//! for any packet width N, with filter invocation as in Embree's user_geometry tutorial.
+//!
+//! A [`UserPrimitives`] implementation supplies per-primitive bounds and a ray test in Rust;
+//! this module owns the FFI: it reads rays from Embree's SOA layout, calls the test, and for
+//! each candidate hit copies the instance ID stack, sets `tfar`, invokes the user's filter
+//! functions, and accepts or restores. No panic crosses into Embree: every callback body runs
+//! in `catch_unwind`, and a panic counts as "no hit" (and is counted).
+
+use std::ffi::c_void;
+use std::panic::{catch_unwind, AssertUnwindSafe};
+use std::sync::atomic::{AtomicU64, Ordering};
+
+use glam::Vec3;
+
+use super::device::{EmbreeError, MAX_INSTANCE_LEVEL_COUNT};
+use super::scene::Scene;
+use super::sys;
+
+/// A hit on one primitive, in the primitive's own space (instances are Embree's business).
+#[derive(Clone, Copy, Debug, PartialEq)]
+pub struct PrimHit {
+    pub t: f32,
+    pub u: f32,
+    pub v: f32,
+    /// Geometric normal (any length, oriented like Embree's triangles: `dp/du x dp/dv`).
+    pub ng: Vec3,
+}
+
+/// A set of primitives that Embree can bound and intersect through callbacks.
+pub trait UserPrimitives: Send + Sync + 'static {
+    /// Number of primitives (Embree's primIDs are `0..count`).
+    fn count(&self) -> u32;
+    /// Conservative bounds of primitive `prim`, or `None` to exclude it from the BVH.
+    fn bounds(&self, prim: u32) -> Option<(Vec3, Vec3)>;
+    /// The nearest hit of `org + t dir` with `t` in the open interval `(tnear, tfar)`.
+    fn intersect(&self, prim: u32, org: Vec3, dir: Vec3, tnear: f32, tfar: f32) -> Option<PrimHit>;
+}
+
+/// Callback failures (panics caught at the FFI boundary), counted process-wide.
+static CALLBACK_PANICS: AtomicU64 = AtomicU64::new(0);
+
+/// How many callback panics were caught (and turned into misses) since start.
+pub fn callback_panics() -> u64 {
+    CALLBACK_PANICS.load(Ordering::Relaxed)
+}
+
+// ---------------------------------------------------------------------------------------------
+// SOA access. Embree's RTCRayN / RTCHitN of width N store field k of lane i at float index
+// k*N + i (rtcore_ray.h: RTCRayN_org_x(ray,N,i) = ((float*)ray)[0*N+i], ...); the hit of an
+// RTCRayHitN starts after the 12 ray fields (RTCRayHitN_HitN = &((float*)rayhit)[12*N]).
+
+const RAY_ORG: usize = 0;
+const RAY_TNEAR: usize = 3;
+const RAY_DIR: usize = 4;
+const RAY_TFAR: usize = 8;
+const RAY_MASK: usize = 9;
+const RAY_FIELDS: usize = 12;
+const HIT_NG: usize = 0;
+const HIT_U: usize = 3;
+const HIT_V: usize = 4;
+const HIT_PRIM: usize = 5;
+const HIT_GEOM: usize = 6;
+const HIT_INST: usize = 7;
+const HIT_INST_PRIM: usize = 7 + MAX_INSTANCE_LEVEL_COUNT;
+const HIT_FIELDS: usize = 7 + 2 * MAX_INSTANCE_LEVEL_COUNT;
+
+/// A raw SOA block of `n` lanes.
+#[derive(Clone, Copy)]
+struct Soa {
+    base: *mut u32,
+    n: usize,
+}
+
+impl Soa {
+    /// # Safety
+    /// `base` must point to at least `fields * n` 4-byte values valid for reads and writes.
+    unsafe fn f(&self, field: usize, lane: usize) -> f32 {
+        f32::from_bits(self.base.add(field * self.n + lane).read())
+    }
+    /// # Safety
+    /// As for [`Soa::f`].
+    unsafe fn set_f(&self, field: usize, lane: usize, x: f32) {
+        self.base.add(field * self.n + lane).write(x.to_bits())
+    }
+    /// # Safety
+    /// As for [`Soa::f`].
+    unsafe fn u(&self, field: usize, lane: usize) -> u32 {
+        self.base.add(field * self.n + lane).read()
+    }
+    /// # Safety
+    /// As for [`Soa::f`].
+    unsafe fn set_u(&self, field: usize, lane: usize, x: u32) {
+        self.base.add(field * self.n + lane).write(x)
+    }
+}
+
+struct LaneRay {
+    org: Vec3,
+    dir: Vec3,
+    tnear: f32,
+    tfar: f32,
+}
+
+/// # Safety
+/// `ray` must be an RTCRayN of width `ray.n` and `lane < ray.n`.
+unsafe fn read_ray(ray: Soa, lane: usize) -> LaneRay {
+    LaneRay {
+        org: Vec3::new(ray.f(RAY_ORG, lane), ray.f(RAY_ORG + 1, lane), ray.f(RAY_ORG + 2, lane)),
+        dir: Vec3::new(ray.f(RAY_DIR, lane), ray.f(RAY_DIR + 1, lane), ray.f(RAY_DIR + 2, lane)),
+        tnear: ray.f(RAY_TNEAR, lane),
+        tfar: ray.f(RAY_TFAR, lane),
+    }
+}
+
+/// # Safety
+/// `hit` must be an RTCHitN of width `hit.n`, `lane < hit.n`, `context` a valid query context.
+unsafe fn write_hit(hit: Soa, lane: usize, h: &PrimHit, prim: u32, geom: u32, context: *const sys::RTCRayQueryContext) {
+    hit.set_f(HIT_NG, lane, h.ng.x);
+    hit.set_f(HIT_NG + 1, lane, h.ng.y);
+    hit.set_f(HIT_NG + 2, lane, h.ng.z);
+    hit.set_f(HIT_U, lane, h.u);
+    hit.set_f(HIT_V, lane, h.v);
+    hit.set_u(HIT_PRIM, lane, prim);
+    hit.set_u(HIT_GEOM, lane, geom);
+    let ctx = &*context;
+    for l in 0..MAX_INSTANCE_LEVEL_COUNT {
+        hit.set_u(HIT_INST + l, lane, ctx.instID[l]);
+        hit.set_u(HIT_INST_PRIM + l, lane, ctx.instPrimID[l]);
+    }
+}
+
+/// The largest packet Embree passes (rtcIntersect16).
+const MAX_N: usize = 16;
+
+/// Per-lane valid mask with only `lane` active, for invoking filters on one candidate.
+fn lane_mask(n: usize, lane: usize) -> [i32; MAX_N] {
+    let mut m = [0i32; MAX_N];
+    if lane < n {
+        m[lane] = -1;
+    }
+    m
+}
+
+// ---------------------------------------------------------------------------------------------
+// Callbacks.
+
+unsafe extern "C" fn bounds_callback<T: UserPrimitives>(args: *const sys::RTCBoundsFunctionArguments) {
+    let r = catch_unwind(AssertUnwindSafe(|| {
+        // SAFETY: Embree passes valid arguments whose geometryUserPtr is the pointer we set with
+        // rtcSetGeometryUserData: a `T` kept alive by the scene (the bounds callback's own
+        // userPtr is ignored by Embree 4, so we never rely on it).
+        let args = unsafe { &*args };
+        let data = unsafe { &*(args.geometryUserPtr as *const T) };
+        let b = data.bounds(args.primID);
+        // SAFETY: bounds_o points to one writable RTCBounds (rtcSetGeometryBoundsFunction docs).
+        let out = unsafe { &mut *args.bounds_o };
+        match b {
+            Some((lo, hi)) if lo.is_finite() && hi.is_finite() && lo.cmple(hi).all() => {
+                (out.lower_x, out.lower_y, out.lower_z) = (lo.x, lo.y, lo.z);
+                (out.upper_x, out.upper_y, out.upper_z) = (hi.x, hi.y, hi.z);
+            }
+            _ => {
+                // Excluded: empty bounds (lower > upper), which Embree's builders skip.
+                (out.lower_x, out.lower_y, out.lower_z) = (f32::INFINITY, f32::INFINITY, f32::INFINITY);
+                (out.upper_x, out.upper_y, out.upper_z) = (f32::NEG_INFINITY, f32::NEG_INFINITY, f32::NEG_INFINITY);
+            }
+        }
+    }));
+    if r.is_err() {
+        CALLBACK_PANICS.fetch_add(1, Ordering::Relaxed);
+    }
+}
+
+unsafe extern "C" fn intersect_callback<T: UserPrimitives>(args: *const sys::RTCIntersectFunctionNArguments) {
+    let r = catch_unwind(AssertUnwindSafe(|| {
+        // SAFETY: Embree passes valid arguments for N lanes: `valid` has N ints, `rayhit` is an
+        // RTCRayHitN of width N, `context` is the query's context, and geometryUserPtr is our `T`
+        // (rtcSetGeometryIntersectFunction docs), alive while the scene is.
+        let a = unsafe { &*args };
+        let n = a.N as usize;
+        if n == 0 || n > MAX_N {
+            return;
+        }
+        let data = unsafe { &*(a.geometryUserPtr as *const T) };
+        let valid = unsafe { std::slice::from_raw_parts(a.valid, n) };
+        let ray = Soa { base: a.rayhit as *mut u32, n };
+        // SAFETY: the hit part of an RTCRayHitN starts after the 12 ray fields (rtcore_ray.h).
+        let hit = Soa { base: unsafe { ray.base.add(RAY_FIELDS * n) }, n };
+        for (lane, &v) in valid.iter().enumerate() {
+            if v != -1 {
+                continue;
+            }
+            // SAFETY: lane < n and the layout is RTCRayHitN of width n.
+            let r = unsafe { read_ray(ray, lane) };
+            let mut tnear = r.tnear;
+            // A patch can be crossed several times: if a filter rejects the nearest root, look
+            // beyond it (at most 4 roots: the resultant of a line and a quadratic patch is a quartic).
+            for _ in 0..4 {
+                // Read tfar afresh: an accepted hit shortens the ray.
+                let tfar = unsafe { ray.f(RAY_TFAR, lane) };
+                let Some(h) = data.intersect(a.primID, r.org, r.dir, tnear, tfar) else { break };
+                // SAFETY: as above; we save every field we overwrite to restore on rejection.
+                unsafe {
+                    let saved: [u32; HIT_FIELDS] = std::array::from_fn(|k| hit.u(k, lane));
+                    ray.set_f(RAY_TFAR, lane, h.t);
+                    write_hit(hit, lane, &h, a.primID, a.geomID, a.context);
+                    let mut mask = lane_mask(n, lane);
+                    let fargs = sys::RTCFilterFunctionNArguments {
+                        valid: mask.as_mut_ptr(),
+                        geometryUserPtr: a.geometryUserPtr,
+                        context: a.context,
+                        ray: a.rayhit as *mut sys::RTCRayN,
+                        hit: hit.base as *mut sys::RTCHitN,
+                        N: a.N,
+                    };
+                    // SAFETY: `fargs` describes this very ray-hit packet with one lane active;
+                    // Embree calls the geometry's and the arguments' filters, which may clear the lane.
+                    sys::rtcInvokeIntersectFilterFromGeometry(args, &fargs);
+                    if mask[lane] == -1 {
+                        break; // accepted
+                    }
+                    for (k, s) in saved.iter().enumerate() {
+                        hit.set_u(k, lane, *s);
+                    }
+                    ray.set_f(RAY_TFAR, lane, tfar);
+                }
+                tnear = h.t;
+            }
+        }
+    }));
+    if r.is_err() {
+        CALLBACK_PANICS.fetch_add(1, Ordering::Relaxed);
+    }
+}
+
+/// A stack RTCHitN of up to 16 lanes with the alignment Embree's packet types use.
+#[repr(C, align(64))]
+struct HitBuf([u32; HIT_FIELDS * MAX_N]);
+
+unsafe extern "C" fn occluded_callback<T: UserPrimitives>(args: *const sys::RTCOccludedFunctionNArguments) {
+    let r = catch_unwind(AssertUnwindSafe(|| {
+        // SAFETY: as in `intersect_callback`, with `ray` an RTCRayN of width N.
+        let a = unsafe { &*args };
+        let n = a.N as usize;
+        if n == 0 || n > MAX_N {
+            return;
+        }
+        let data = unsafe { &*(a.geometryUserPtr as *const T) };
+        let valid = unsafe { std::slice::from_raw_parts(a.valid, n) };
+        let ray = Soa { base: a.ray as *mut u32, n };
+        let mut buf = HitBuf([0; HIT_FIELDS * MAX_N]);
+        let hit = Soa { base: buf.0.as_mut_ptr(), n };
+        for (lane, &v) in valid.iter().enumerate() {
+            if v != -1 {
+                continue;
+            }
+            // SAFETY: lane < n and the layout is RTCRayN of width n.
+            let r = unsafe { read_ray(ray, lane) };
+            let mut tnear = r.tnear;
+            for _ in 0..4 {
+                let Some(h) = data.intersect(a.primID, r.org, r.dir, tnear, r.tfar) else { break };
+                // SAFETY: `hit` is our own HIT_FIELDS x n buffer; the filter sees the candidate
+                // there, with the ray's tfar set to it (restored unless accepted).
+                unsafe {
+                    ray.set_f(RAY_TFAR, lane, h.t);
+                    write_hit(hit, lane, &h, a.primID, a.geomID, a.context);
+                    let mut mask = lane_mask(n, lane);
+                    let fargs = sys::RTCFilterFunctionNArguments {
+                        valid: mask.as_mut_ptr(),
+                        geometryUserPtr: a.geometryUserPtr,
+                        context: a.context,
+                        ray: a.ray,
+                        hit: hit.base as *mut sys::RTCHitN,
+                        N: a.N,
+                    };
+                    sys::rtcInvokeOccludedFilterFromGeometry(args, &fargs);
+                    if mask[lane] == -1 {
+                        // Occluded: Embree's convention is tfar = -inf.
+                        ray.set_f(RAY_TFAR, lane, f32::NEG_INFINITY);
+                        break;
+                    }
+                    ray.set_f(RAY_TFAR, lane, r.tfar);
+                }
+                tnear = h.t;
+            }
+        }
+    }));
+    if r.is_err() {
+        CALLBACK_PANICS.fetch_add(1, Ordering::Relaxed);
+    }
+}
+
+/// Options for a user geometry.
+#[derive(Clone, Copy, Debug)]
+pub struct UserGeometryOptions {
+    /// Geometry mask (our rays use -1; Embree's default mask is 1).
+    pub mask: u32,
+}
+
+impl Default for UserGeometryOptions {
+    fn default() -> Self {
+        UserGeometryOptions { mask: u32::MAX }
+    }
+}
+
+/// Create a committed user geometry for `data` on `device_raw`. The caller must keep `data`
+/// at its address for as long as the geometry can be traced.
+///
+/// # Safety
+/// `device_raw` must be a live Embree device, and `data` must stay valid and unmoved until the
+/// geometry and every scene it is attached to are released.
+pub(crate) unsafe fn new_user_geometry<T: UserPrimitives>(
+    device_raw: sys::RTCDevice,
+    data: *const T,
+    options: UserGeometryOptions,
+) -> sys::RTCGeometry {
+    // SAFETY: the caller guarantees the device and data; the callbacks are monomorphised for
+    // `T` and only ever cast geometryUserPtr back to `T`.
+    let geom = sys::rtcNewGeometry(device_raw, sys::RTCGeometryType::RTC_GEOMETRY_TYPE_USER);
+    if geom.is_null() {
+        return geom;
+    }
+    sys::rtcSetGeometryUserPrimitiveCount(geom, (*data).count());
+    sys::rtcSetGeometryUserData(geom, data as *mut c_void);
+    sys::rtcSetGeometryBoundsFunction(geom, Some(bounds_callback::<T>), std::ptr::null_mut());
+    sys::rtcSetGeometryIntersectFunction(geom, Some(intersect_callback::<T>));
+    sys::rtcSetGeometryOccludedFunction(geom, Some(occluded_callback::<T>));
+    sys::rtcSetGeometryMask(geom, options.mask);
+    sys::rtcCommitGeometry(geom);
+    geom
+}
+
+impl Scene {
+    /// Attach `prims` as one user geometry (one Embree primitive per element); the scene owns
+    /// the data from now on. Returns the geomID.
+    pub fn attach_user<T: UserPrimitives>(
+        &mut self,
+        prims: T,
+        options: UserGeometryOptions,
+    ) -> Result<u32, EmbreeError> {
+        let boxed = Box::new(prims);
+        let ptr: *const T = &*boxed;
+        let device = self.device().clone();
+        // Hand the box to the scene first: its heap address stays put when the box moves.
+        self.keep_alive(boxed)?;
+        // SAFETY: the device is live; `ptr` points into the box the scene now owns, released
+        // only after the scene (and so the geometry) is (SceneHandle field order).
+        let geom = unsafe { new_user_geometry(device.raw(), ptr, options) };
+        device.check()?;
+        if geom.is_null() {
+            return Err(EmbreeError::Null("user geometry"));
+        }
+        self.attach_raw(geom)
+    }
+}
+
+/// Flat triangles as a user geometry with a plain Möller–Trumbore triangle test:
+/// the floor of what the callback route costs, and a check of the callback plumbing.
+pub struct UserTriangles {
+    pub positions: Vec<Vec3>,
+    pub indices: Vec<[u32; 3]>,
+}
+
+impl UserPrimitives for UserTriangles {
+    fn count(&self) -> u32 {
+        self.indices.len() as u32
+    }
+
+    fn bounds(&self, prim: u32) -> Option<(Vec3, Vec3)> {
+        let t = self.indices.get(prim as usize)?;
+        let p = t.map(|i| self.positions.get(i as usize).copied());
+        let (a, b, c) = (p[0]?, p[1]?, p[2]?);
+        Some((a.min(b).min(c), a.max(b).max(c)))
+    }
+
+    fn intersect(&self, prim: u32, org: Vec3, dir: Vec3, tnear: f32, tfar: f32) -> Option<PrimHit> {
+        let t = self.indices.get(prim as usize)?;
+        let p = |k: usize| self.positions.get(t[k] as usize).copied();
+        let (v0, v1, v2) = (p(0)?, p(1)?, p(2)?);
+        // Möller–Trumbore: solve org + t dir = (1-u-v) v0 + u v1 + v v2.
+        let (e1, e2) = (v1 - v0, v2 - v0);
+        let pv = dir.cross(e2);
+        let det = e1.dot(pv);
+        if det == 0.0 || !det.is_finite() {
+            return None;
+        }
+        let inv = 1.0 / det;
+        let s = org - v0;
+        let u = s.dot(pv) * inv;
+        let q = s.cross(e1);
+        let v = dir.dot(q) * inv;
+        if !(u >= 0.0 && v >= 0.0 && u + v <= 1.0) {
+            return None;
+        }
+        let t = e2.dot(q) * inv;
+        (t > tnear && t < tfar).then(|| PrimHit { t, u, v, ng: e1.cross(e2) })
+    }
+}

@@ -1,0 +1,218 @@
+//! The user-geometry plumbing (callbacks, packets, filters, masks, instances), checked with
+//! flat triangles as user geometry against Embree's native triangles on the same rays.
+use glam::{Mat4, Vec3};
+use phongrt::embree::{
+    sys, Device, GeometryOptions, Ray, Scene, UserGeometryOptions, UserTriangles,
+};
+
+/// A small closed mesh: an octahedron around the origin.
+fn octahedron() -> (Vec<Vec3>, Vec<[u32; 3]>) {
+    let p = vec![Vec3::X, -Vec3::X, Vec3::Y, -Vec3::Y, Vec3::Z, -Vec3::Z];
+    let i = vec![
+        [0, 2, 4], [2, 1, 4], [1, 3, 4], [3, 0, 4],
+        [2, 0, 5], [1, 2, 5], [3, 1, 5], [0, 3, 5],
+    ];
+    (p, i)
+}
+
+/// A deterministic stream of rays aimed near the origin.
+fn rays(n: usize) -> Vec<Ray> {
+    let mut s = 0x1234_5678_9abc_def0u64;
+    let mut r = || {
+        s ^= s << 13;
+        s ^= s >> 7;
+        s ^= s << 17;
+        (s >> 40) as f32 / (1u64 << 24) as f32 * 2.0 - 1.0
+    };
+    (0..n)
+        .map(|_| {
+            let o = Vec3::new(r(), r(), r()).normalize_or(Vec3::X) * 3.0;
+            let target = Vec3::new(r(), r(), r()) * 0.8;
+            Ray::new(o, target - o)
+        })
+        .collect()
+}
+
+fn scenes(device: &Device) -> (Scene, Scene) {
+    let (p, i) = octahedron();
+    let mut native = Scene::new(device).unwrap();
+    native.attach_triangles(&p, &i, GeometryOptions::default()).unwrap();
+    native.commit().unwrap();
+    let mut user = Scene::new(device).unwrap();
+    user.attach_user(UserTriangles { positions: p, indices: i }, UserGeometryOptions::default())
+        .unwrap();
+    user.commit().unwrap();
+    (native, user)
+}
+
+#[test]
+fn user_triangles_match_native_triangles() {
+    let device = Device::new().unwrap();
+    let (native, user) = scenes(&device);
+    let mut hits = 0;
+    for r in rays(20_000) {
+        let a = native.intersect1(r);
+        let b = user.intersect1(r);
+        assert_eq!(a.is_some(), b.is_some(), "{r:?}");
+        if let (Some(a), Some(b)) = (a, b) {
+            hits += 1;
+            assert_eq!(a.prim_id, b.prim_id);
+            assert!((a.t - b.t).abs() <= 1e-5 * a.t, "{} vs {}", a.t, b.t);
+            assert!((a.u - b.u).abs() < 1e-4 && (a.v - b.v).abs() < 1e-4);
+            assert!(a.ng.normalize().dot(b.ng.normalize()) > 0.9999);
+        }
+        assert_eq!(native.occluded1(r), user.occluded1(r));
+    }
+    assert!(hits > 10_000, "too few hits: {hits}");
+}
+
+fn packet_check<const N: usize>(native: &Scene, user: &Scene) {
+    for chunk in rays(64 * N).chunks(N) {
+        // Leave the last lane invalid to check the valid mask is honoured.
+        let mut valid = [-1i32; N];
+        valid[N - 1] = 0;
+        macro_rules! fill {
+            ($rh:expr) => {
+                for (k, r) in chunk.iter().enumerate() {
+                    $rh.ray.org_x[k] = r.org.x; $rh.ray.org_y[k] = r.org.y; $rh.ray.org_z[k] = r.org.z;
+                    $rh.ray.dir_x[k] = r.dir.x; $rh.ray.dir_y[k] = r.dir.y; $rh.ray.dir_z[k] = r.dir.z;
+                    $rh.ray.tnear[k] = 0.0; $rh.ray.tfar[k] = f32::INFINITY; $rh.ray.mask[k] = u32::MAX;
+                    $rh.hit.geomID[k] = u32::MAX;
+                }
+            };
+        }
+        match N {
+            4 => {
+                let mut rh = sys::RTCRayHit4::default();
+                fill!(rh);
+                let v: &[i32; 4] = valid[..].try_into().unwrap();
+                user.intersect4(v, &mut rh, None);
+                for (k, r) in chunk.iter().enumerate() {
+                    let single = native.intersect1(*r);
+                    if k == N - 1 {
+                        assert_eq!(rh.hit.geomID[k], u32::MAX, "invalid lane traced");
+                    } else {
+                        assert_eq!(single.map(|h| h.prim_id), (rh.hit.geomID[k] != u32::MAX).then_some(rh.hit.primID[k]));
+                    }
+                }
+                let mut ray = rh.ray;
+                for k in 0..N { ray.tfar[k] = f32::INFINITY; }
+                user.occluded4(v, &mut ray, None);
+                for (k, r) in chunk.iter().enumerate().take(N - 1) {
+                    assert_eq!(native.occluded1(*r), ray.tfar[k] == f32::NEG_INFINITY);
+                }
+            }
+            8 => {
+                let mut rh = sys::RTCRayHit8::default();
+                fill!(rh);
+                let v: &[i32; 8] = valid[..].try_into().unwrap();
+                user.intersect8(v, &mut rh, None);
+                for (k, r) in chunk.iter().enumerate().take(N - 1) {
+                    let single = native.intersect1(*r);
+                    assert_eq!(single.map(|h| h.prim_id), (rh.hit.geomID[k] != u32::MAX).then_some(rh.hit.primID[k]));
+                }
+                let mut ray = rh.ray;
+                for k in 0..N { ray.tfar[k] = f32::INFINITY; }
+                user.occluded8(v, &mut ray, None);
+                for (k, r) in chunk.iter().enumerate().take(N - 1) {
+                    assert_eq!(native.occluded1(*r), ray.tfar[k] == f32::NEG_INFINITY);
+                }
+            }
+            16 => {
+                let mut rh = sys::RTCRayHit16::default();
+                fill!(rh);
+                let v: &[i32; 16] = valid[..].try_into().unwrap();
+                user.intersect16(v, &mut rh, None);
+                for (k, r) in chunk.iter().enumerate().take(N - 1) {
+                    let single = native.intersect1(*r);
+                    assert_eq!(single.map(|h| h.prim_id), (rh.hit.geomID[k] != u32::MAX).then_some(rh.hit.primID[k]));
+                    if let Some(s) = single {
+                        assert!((s.t - rh.ray.tfar[k]).abs() <= 1e-5 * s.t);
+                    }
+                }
+                let mut ray = rh.ray;
+                for k in 0..N { ray.tfar[k] = f32::INFINITY; }
+                user.occluded16(v, &mut ray, None);
+                for (k, r) in chunk.iter().enumerate().take(N - 1) {
+                    assert_eq!(native.occluded1(*r), ray.tfar[k] == f32::NEG_INFINITY);
+                }
+            }
+            _ => unreachable!(),
+        }
+    }
+}
+
+#[test]
+fn packets_4_8_16_match_single_rays() {
+    let device = Device::new().unwrap();
+    let (native, user) = scenes(&device);
+    packet_check::<4>(&native, &user);
+    packet_check::<8>(&native, &user);
+    packet_check::<16>(&native, &user);
+}
+
+/// A filter that rejects every hit on primitives with an even primID.
+unsafe extern "C" fn reject_even(args: *const sys::RTCFilterFunctionNArguments) {
+    let a = &*args;
+    let n = a.N as usize;
+    let hit = a.hit as *const u32;
+    for lane in 0..n {
+        let valid = a.valid.add(lane);
+        if *valid != -1 { continue; }
+        let prim = *hit.add(5 * n + lane);
+        if prim % 2 == 0 {
+            *valid = 0;
+        }
+    }
+}
+
+#[test]
+fn filters_see_and_reject_candidates_as_on_triangles() {
+    let device = Device::new().unwrap();
+    let (p, i) = octahedron();
+    // Same geometry twice, each with the filter: native triangles and user triangles.
+    let mut results = Vec::new();
+    for user in [false, true] {
+        let mut scene = Scene::new(&device).unwrap();
+        let id = if user {
+            scene.attach_user(UserTriangles { positions: p.clone(), indices: i.clone() }, UserGeometryOptions::default()).unwrap()
+        } else {
+            scene.attach_triangles(&p, &i, GeometryOptions::default()).unwrap()
+        };
+        // SAFETY (test): the geometry is live in an uncommitted scene; setting filters before commit is allowed.
+        unsafe {
+            let g = sys::rtcGetGeometry(scene.raw(), id);
+            sys::rtcSetGeometryIntersectFilterFunction(g, Some(reject_even));
+            sys::rtcSetGeometryOccludedFilterFunction(g, Some(reject_even));
+            sys::rtcCommitGeometry(g);
+        }
+        scene.commit().unwrap();
+        let r: Vec<_> = rays(5000).into_iter().map(|r| (scene.intersect1(r).map(|h| (h.prim_id, (h.t * 1e4).round() as i64)), scene.occluded1(r))).collect();
+        results.push(r);
+    }
+    let odd_hits = results[1].iter().filter(|(h, _)| h.is_some()).count();
+    assert!(odd_hits > 1000);
+    assert!(results[1].iter().all(|(h, _)| h.map_or(true, |(p, _)| p % 2 == 1)));
+    // Rays through a rejected front face reach the back face: same as with native triangles.
+    let same = results[0].iter().zip(&results[1]).filter(|(a, b)| a == b).count();
+    assert!(same as f64 >= 0.999 * results[0].len() as f64, "{same} of {}", results[0].len());
+}
+
+#[test]
+fn masks_and_instances_work_for_user_geometry() {
+    let device = Device::new().unwrap();
+    let (p, i) = octahedron();
+    let mut child = Scene::new(&device).unwrap();
+    child.attach_user(UserTriangles { positions: p, indices: i }, UserGeometryOptions { mask: 0b10 }).unwrap();
+    child.commit().unwrap();
+    let mut top = Scene::new(&device).unwrap();
+    let inst = top.attach_instance(&child, Mat4::from_translation(Vec3::new(5.0, 0.0, 0.0)), u32::MAX).unwrap();
+    top.commit().unwrap();
+    let mut r = Ray::new(Vec3::new(5.2, 0.1, 5.0), -Vec3::Z);
+    let h = top.intersect1(r).expect("hit through instance");
+    assert_eq!(h.inst_id[0], inst);
+    assert!((h.t - (5.0 - (1.0 - 0.3))).abs() < 1e-5, "t = {}", h.t);
+    r.mask = 0b01;
+    assert!(top.intersect1(r).is_none(), "geometry mask ignored");
+    assert!(!top.occluded1(r));
+}
