@@ -54,7 +54,6 @@ const RAY_ORG: usize = 0;
 const RAY_TNEAR: usize = 3;
 const RAY_DIR: usize = 4;
 const RAY_TFAR: usize = 8;
-const RAY_MASK: usize = 9;
 const RAY_FIELDS: usize = 12;
 const HIT_NG: usize = 0;
 const HIT_U: usize = 3;

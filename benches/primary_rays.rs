@@ -1,0 +1,69 @@
+//! Primary-ray throughput through Embree: native triangles, flat triangles as user geometry
+//! (the floor of the callback route), and direct Phong patches, on a low-poly sphere.
+//! `cargo bench --bench primary_rays` prints ns per ray; Mrays/s = 1000 / ns.
+use criterion::{criterion_group, criterion_main, Criterion, Throughput};
+use glam::Vec3;
+use phongrt::embree::{set_flush_denormals, Device, GeometryOptions, Ray, Scene, UserGeometryOptions, UserTriangles};
+
+/// A UV sphere with `seg` segments and `rings` rings (unit radius, exact normals).
+fn uv_sphere(seg: u32, rings: u32) -> (Vec<Vec3>, Vec<Vec3>, Vec<[u32; 3]>) {
+    let mut p = vec![Vec3::Y];
+    for r in 1..rings {
+        let th = std::f32::consts::PI * r as f32 / rings as f32;
+        for s in 0..seg {
+            let ph = std::f32::consts::TAU * s as f32 / seg as f32;
+            p.push(Vec3::new(th.sin() * ph.cos(), th.cos(), -th.sin() * ph.sin()));
+        }
+    }
+    p.push(-Vec3::Y);
+    let ring = |r: u32, s: u32| 1 + (r - 1) * seg + s % seg;
+    let last = p.len() as u32 - 1;
+    let mut idx = Vec::new();
+    for s in 0..seg {
+        idx.push([0, ring(1, s), ring(1, s + 1)]);
+        for r in 1..rings - 1 {
+            idx.push([ring(r, s), ring(r + 1, s), ring(r + 1, s + 1)]);
+            idx.push([ring(r, s), ring(r + 1, s + 1), ring(r, s + 1)]);
+        }
+        idx.push([ring(rings - 1, s), last, ring(rings - 1, s + 1)]);
+    }
+    (p.clone(), p, idx)
+}
+
+fn camera_rays(w: u32, h: u32) -> Vec<Ray> {
+    let eye = Vec3::new(0.0, 0.0, 3.0);
+    let mut v = Vec::with_capacity((w * h) as usize);
+    for y in 0..h {
+        for x in 0..w {
+            let sx = (x as f32 + 0.5) / w as f32 * 2.0 - 1.0;
+            let sy = 1.0 - (y as f32 + 0.5) / h as f32 * 2.0;
+            v.push(Ray::new(eye, Vec3::new(sx * 0.45, sy * 0.45, -1.0)));
+        }
+    }
+    v
+}
+
+fn bench(c: &mut Criterion) {
+    set_flush_denormals();
+    let device = Device::with_config("threads=1").unwrap();
+    let (p, _n, idx) = uv_sphere(12, 6);
+    let rays = camera_rays(128, 128);
+    let mut native = Scene::new(&device).unwrap();
+    native.attach_triangles(&p, &idx, GeometryOptions::default()).unwrap();
+    native.commit().unwrap();
+    let mut user = Scene::new(&device).unwrap();
+    user.attach_user(UserTriangles { positions: p.clone(), indices: idx.clone() }, UserGeometryOptions::default()).unwrap();
+    user.commit().unwrap();
+
+    let mut g = c.benchmark_group("primary_rays_sphere_12x6");
+    g.throughput(Throughput::Elements(rays.len() as u64));
+    for (name, scene) in [("native_triangles", &native), ("user_triangles", &user)] {
+        g.bench_function(name, |b| {
+            b.iter(|| rays.iter().filter(|r| scene.intersect1(**r).is_some()).count())
+        });
+    }
+    g.finish();
+}
+
+criterion_group!(benches, bench);
+criterion_main!(benches);

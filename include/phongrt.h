@@ -1,0 +1,61 @@
+/*
+ * phongrt: Phong Tessellation patches as an Embree 4 user geometry, for C and C++ programs.
+ *
+ * Attach a Phong mesh to your own RTCScene and trace it with rtcIntersect1/4/8/16 and
+ * rtcOccluded1/4/8/16 as you would a triangle mesh: hits report geomID, primID, instID, u and v in
+ * Embree's triangle convention ((1-u-v) v0 + u v1 + v v2 at alpha = 0) and Ng = the true surface
+ * normal dp/du x dp/dv. Intersection and occlusion filters set on the geometry (or passed in the
+ * query arguments) are invoked per candidate hit, as for triangles.
+ *
+ * Link with -lphongrt (libphongrt.so or libphongrt.a) and -lembree4.
+ */
+#ifndef PHONGRT_H
+#define PHONGRT_H
+
+#include <stddef.h>
+#include <embree4/rtcore.h>
+
+#ifdef __cplusplus
+extern "C" {
+#endif
+
+/* Mesh data owned by phongrt (copied from the caller's arrays). */
+typedef struct phongrt_mesh phongrt_mesh;
+
+/*
+ * Build a Phong mesh from `vertex_count` positions and normals (3 floats each; normals need not be
+ * unit length but must not be zero) and `triangle_count` triangles (3 vertex indices each), with
+ * shape factor `alpha` in [0, 1] (0 = flat triangles, 1 = full Phong tessellation), create its user
+ * geometry on the scene's device, attach it to `scene` and return its geomID (the scene must then be
+ * committed as usual). `*mesh_out` receives the mesh, for the shading helpers and for
+ * phongrt_mesh_release. Returns RTC_INVALID_GEOMETRY_ID on error; phongrt_last_error() says why.
+ */
+unsigned int phongrt_attach_mesh(RTCScene scene,
+                                 const float* positions, const float* normals, size_t vertex_count,
+                                 const unsigned int* indices, size_t triangle_count,
+                                 float alpha, phongrt_mesh** mesh_out);
+
+/* Free a mesh. Call only after every scene the mesh was attached to has been released. NULL is ignored. */
+void phongrt_mesh_release(phongrt_mesh* mesh);
+
+/*
+ * The shading normal at (u, v) of triangle `prim_id` for a ray arriving along `ray_dir`: the
+ * Phong-interpolated normal, or the true surface normal where the reflected view vector would fall
+ * below the surface (Ogaki & Tokuyoshi, section 4). Unit length, facing the side the ray came from.
+ * Returns 0 on success, -1 on bad input.
+ */
+int phongrt_shading_normal(const phongrt_mesh* mesh, unsigned int prim_id, float u, float v,
+                           const float ray_dir[3], float normal_out[3]);
+
+/* The surface point at (u, v) of triangle `prim_id` (object space). Returns 0 or -1. */
+int phongrt_surface_point(const phongrt_mesh* mesh, unsigned int prim_id, float u, float v,
+                          float point_out[3]);
+
+/* The last error message of this thread ("" if none). Valid until the next phongrt call on it. */
+const char* phongrt_last_error(void);
+
+#ifdef __cplusplus
+}
+#endif
+
+#endif /* PHONGRT_H */

@@ -1,0 +1,111 @@
+//! Command-line interface definition (clap).
+
+use std::path::PathBuf;
+
+use clap::{Args, Parser, Subcommand, ValueEnum};
+use glam::Vec3;
+
+/// Ray-trace Phong Tessellation directly, as an Embree 4 user geometry.
+///
+/// A low-polygon mesh with vertex normals renders with smooth silhouettes and smooth shadow
+/// boundaries, with no tessellation. Flat mode renders the same mesh with Embree's own
+/// triangles, for comparison.
+#[derive(Parser, Debug)]
+#[command(name = "phongrt", version, about, long_about = None, propagate_version = true)]
+pub struct Cli {
+    #[command(subcommand)]
+    pub command: Command,
+}
+
+#[derive(Subcommand, Debug)]
+pub enum Command {
+    /// Render an OBJ file to a PNG (sRGB) or EXR (linear) image.
+    Render(RenderArgs),
+    /// Describe an OBJ file (objects, vertices, triangles, normals, bounds) and the Embree in use.
+    Info(InfoArgs),
+}
+
+/// How surfaces are made.
+#[derive(Clone, Copy, Debug, PartialEq, Eq, ValueEnum)]
+pub enum Mode {
+    /// Embree's native flat triangles, shaded with interpolated vertex normals.
+    Flat,
+}
+
+#[derive(Args, Debug)]
+pub struct RenderArgs {
+    /// The OBJ file to render (its MTL files are read too).
+    pub scene: PathBuf,
+    /// Output image: .png (8-bit sRGB) or .exr (linear float).
+    #[arg(short, long, default_value = "out.png")]
+    pub output: PathBuf,
+    /// Image width in pixels.
+    #[arg(long, default_value_t = 800)]
+    pub width: u32,
+    /// Image height in pixels.
+    #[arg(long, default_value_t = 600)]
+    pub height: u32,
+    /// Samples per pixel (anti-aliasing).
+    #[arg(long, default_value_t = 1)]
+    pub spp: u32,
+    /// Surface mode for every object.
+    #[arg(long, value_enum, default_value_t = Mode::Flat)]
+    pub mode: Mode,
+    /// Render threads (default: all cores). The image does not depend on it.
+    #[arg(long)]
+    pub threads: Option<usize>,
+    #[command(flatten)]
+    pub camera: CameraArgs,
+    #[command(flatten)]
+    pub load: LoadArgs,
+    /// No progress bar.
+    #[arg(long, short)]
+    pub quiet: bool,
+}
+
+#[derive(Args, Debug)]
+pub struct CameraArgs {
+    /// Camera position "x,y,z" (default: framed on the scene bounds).
+    #[arg(long, value_parser = parse_vec3, allow_hyphen_values = true)]
+    pub eye: Option<Vec3>,
+    /// Point the camera looks at "x,y,z" (default: the centre of the scene bounds).
+    #[arg(long, value_parser = parse_vec3, allow_hyphen_values = true)]
+    pub look_at: Option<Vec3>,
+    /// Camera up vector "x,y,z".
+    #[arg(long, value_parser = parse_vec3, allow_hyphen_values = true, default_value = "0,1,0")]
+    pub up: Vec3,
+    /// Vertical field of view in degrees.
+    #[arg(long)]
+    pub fov: Option<f32>,
+}
+
+#[derive(Args, Debug)]
+pub struct LoadArgs {
+    /// Where a mesh has no normals, edges sharper than this (degrees) stay sharp.
+    #[arg(long, default_value_t = 30.0)]
+    pub crease_angle: f32,
+}
+
+#[derive(Args, Debug)]
+pub struct InfoArgs {
+    /// The OBJ file to describe.
+    pub scene: PathBuf,
+    #[command(flatten)]
+    pub load: LoadArgs,
+}
+
+/// Parse "x,y,z" into a vector of finite numbers.
+pub fn parse_vec3(s: &str) -> Result<Vec3, String> {
+    let parts: Vec<&str> = s.split(',').map(str::trim).collect();
+    if parts.len() != 3 {
+        return Err(format!("expected three comma-separated numbers \"x,y,z\", got {s:?}"));
+    }
+    let mut v = [0.0f32; 3];
+    for (i, p) in parts.iter().enumerate() {
+        v[i] = p.parse::<f32>().map_err(|_| format!("{p:?} is not a number"))?;
+        if !v[i].is_finite() {
+            return Err(format!("{p:?} is not finite"));
+        }
+    }
+    Ok(Vec3::from_array(v))
+}

@@ -1,0 +1,200 @@
+//! The C API of `include/phongrt.h`: attach Phong meshes to a C/C++ program's own Embree scene.
+
+use std::cell::RefCell;
+use std::ffi::{c_char, c_int, CString};
+use std::panic::{catch_unwind, AssertUnwindSafe};
+
+use glam::Vec3;
+
+use super::phong_geometry::PhongMesh;
+use super::sys;
+use super::user_geometry::{new_user_geometry, UserGeometryOptions};
+
+thread_local! {
+    static LAST_ERROR: RefCell<CString> = RefCell::new(CString::default());
+}
+
+fn set_error(msg: &str) {
+    let c = CString::new(msg.replace('\0', " ")).unwrap_or_default();
+    LAST_ERROR.with(|e| *e.borrow_mut() = c);
+}
+
+/// Opaque to C: the mesh data a Phong user geometry points into.
+pub struct phongrt_mesh {
+    mesh: PhongMesh,
+}
+
+/// # Safety
+/// `p` must be NULL or point to `n` readable floats... checked by the caller for NULL.
+unsafe fn read_vec3s(p: *const f32, n: usize) -> Vec<Vec3> {
+    // SAFETY: the caller passes `n` float triples (phongrt.h contract); we checked for NULL.
+    let s = std::slice::from_raw_parts(p, n * 3);
+    s.chunks_exact(3).map(|c| Vec3::new(c[0], c[1], c[2])).collect()
+}
+
+/// See `phongrt_attach_mesh` in include/phongrt.h.
+///
+/// # Safety
+/// `scene` must be a live RTCScene; `positions`/`normals` must point to `vertex_count` float
+/// triples and `indices` to `triangle_count` uint triples; `mesh_out` must be NULL or writable.
+#[no_mangle]
+pub unsafe extern "C" fn phongrt_attach_mesh(
+    scene: sys::RTCScene,
+    positions: *const f32,
+    normals: *const f32,
+    vertex_count: usize,
+    indices: *const u32,
+    triangle_count: usize,
+    alpha: f32,
+    mesh_out: *mut *mut phongrt_mesh,
+) -> u32 {
+    let r = catch_unwind(AssertUnwindSafe(|| -> Result<u32, String> {
+        if !mesh_out.is_null() {
+            // SAFETY: mesh_out is writable per the contract.
+            unsafe { *mesh_out = std::ptr::null_mut() };
+        }
+        if scene.is_null() || positions.is_null() || normals.is_null() || indices.is_null() {
+            return Err("phongrt_attach_mesh: NULL scene or array".into());
+        }
+        if vertex_count > (u32::MAX as usize) || triangle_count > (u32::MAX as usize) {
+            return Err("phongrt_attach_mesh: too many vertices or triangles".into());
+        }
+        // SAFETY: the arrays hold the stated counts (phongrt.h contract); we copy them.
+        let (p, n, idx) = unsafe {
+            let p = read_vec3s(positions, vertex_count);
+            let n = read_vec3s(normals, vertex_count);
+            let i = std::slice::from_raw_parts(indices, triangle_count * 3);
+            let idx: Vec<[u32; 3]> = i.chunks_exact(3).map(|c| [c[0], c[1], c[2]]).collect();
+            (p, n, idx)
+        };
+        let mesh = PhongMesh::new(p, n, idx, alpha).map_err(|e| format!("phongrt_attach_mesh: {e}"))?;
+        let boxed = Box::new(phongrt_mesh { mesh });
+        // SAFETY: `scene` is live (contract), so its device is; the mesh box is leaked to the
+        // caller, who frees it with phongrt_mesh_release only after releasing the scene
+        // (phongrt.h), so the geometry's user pointer stays valid while it can be traced.
+        unsafe {
+            let device = sys::rtcGetSceneDevice(scene);
+            let ptr: *const PhongMesh = &boxed.mesh;
+            let geom = new_user_geometry(device, ptr, UserGeometryOptions::default());
+            // rtcGetSceneDevice retained the device: release that reference.
+            if geom.is_null() {
+                sys::rtcReleaseDevice(device);
+                return Err("phongrt_attach_mesh: Embree could not create a user geometry".into());
+            }
+            let id = sys::rtcAttachGeometry(scene, geom);
+            sys::rtcReleaseGeometry(geom);
+            let err = sys::rtcGetDeviceError(device);
+            sys::rtcReleaseDevice(device);
+            if err != sys::RTCError::RTC_ERROR_NONE {
+                return Err(format!("phongrt_attach_mesh: Embree: {}", super::device::error_kind(err)));
+            }
+            if !mesh_out.is_null() {
+                *mesh_out = Box::into_raw(boxed);
+            } else {
+                // Without a handle the caller can never free it: keep it for the process lifetime.
+                Box::leak(boxed);
+            }
+            Ok(id)
+        }
+    }));
+    match r {
+        Ok(Ok(id)) => {
+            set_error("");
+            id
+        }
+        Ok(Err(msg)) => {
+            set_error(&msg);
+            sys::RTC_INVALID_GEOMETRY_ID
+        }
+        Err(_) => {
+            set_error("phongrt_attach_mesh: internal error (panic caught)");
+            sys::RTC_INVALID_GEOMETRY_ID
+        }
+    }
+}
+
+/// See `phongrt_mesh_release` in include/phongrt.h.
+///
+/// # Safety
+/// `mesh` must be NULL or come from `phongrt_attach_mesh`, not yet released, and no scene that
+/// holds its geometry may be traced afterwards.
+#[no_mangle]
+pub unsafe extern "C" fn phongrt_mesh_release(mesh: *mut phongrt_mesh) {
+    if !mesh.is_null() {
+        // SAFETY: `mesh` came from Box::into_raw in phongrt_attach_mesh (contract).
+        let _ = catch_unwind(AssertUnwindSafe(|| drop(unsafe { Box::from_raw(mesh) })));
+    }
+}
+
+/// See `phongrt_shading_normal` in include/phongrt.h.
+///
+/// # Safety
+/// `mesh` must be a live mesh; `ray_dir` must point to 3 floats and `normal_out` to 3 writable floats.
+#[no_mangle]
+pub unsafe extern "C" fn phongrt_shading_normal(
+    mesh: *const phongrt_mesh,
+    prim_id: u32,
+    u: f32,
+    v: f32,
+    ray_dir: *const f32,
+    normal_out: *mut f32,
+) -> c_int {
+    if mesh.is_null() || ray_dir.is_null() || normal_out.is_null() {
+        set_error("phongrt_shading_normal: NULL argument");
+        return -1;
+    }
+    let r = catch_unwind(AssertUnwindSafe(|| {
+        // SAFETY: pointers are valid per the contract (checked non-NULL above).
+        let (m, d) = unsafe { (&(*mesh).mesh, read_vec3s(ray_dir, 1)[0]) };
+        m.shading_normal(prim_id, u, v, d)
+    }));
+    match r {
+        Ok(Some(n)) => {
+            // SAFETY: normal_out has 3 writable floats (contract).
+            unsafe { std::ptr::copy_nonoverlapping(n.to_array().as_ptr(), normal_out, 3) };
+            0
+        }
+        _ => {
+            set_error("phongrt_shading_normal: bad primitive, (u, v) or direction");
+            -1
+        }
+    }
+}
+
+/// See `phongrt_surface_point` in include/phongrt.h.
+///
+/// # Safety
+/// `mesh` must be a live mesh and `point_out` must point to 3 writable floats.
+#[no_mangle]
+pub unsafe extern "C" fn phongrt_surface_point(
+    mesh: *const phongrt_mesh,
+    prim_id: u32,
+    u: f32,
+    v: f32,
+    point_out: *mut f32,
+) -> c_int {
+    if mesh.is_null() || point_out.is_null() {
+        set_error("phongrt_surface_point: NULL argument");
+        return -1;
+    }
+    // SAFETY: `mesh` is live (contract).
+    let r = catch_unwind(AssertUnwindSafe(|| unsafe { &(*mesh).mesh }.surface_point(prim_id, u, v)));
+    match r {
+        Ok(Some((p, _err))) => {
+            // SAFETY: point_out has 3 writable floats (contract).
+            unsafe { std::ptr::copy_nonoverlapping(p.to_array().as_ptr(), point_out, 3) };
+            0
+        }
+        _ => {
+            set_error("phongrt_surface_point: bad primitive or (u, v)");
+            -1
+        }
+    }
+}
+
+/// See `phongrt_last_error` in include/phongrt.h.
+#[no_mangle]
+pub extern "C" fn phongrt_last_error() -> *const c_char {
+    // The CString lives in this thread's slot until the next phongrt call on this thread.
+    LAST_ERROR.with(|e| e.borrow().as_ptr())
+}

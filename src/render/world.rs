@@ -1,0 +1,502 @@
+//! The world: scene objects in one Embree scene, each flat (Embree triangles) or Phong
+//! (user geometry), with materials and lights; and the integrator, which simulates only the
+//! effects the scene calls for (see [`Effects`]).
+
+use anyhow::Context;
+use glam::Vec3;
+
+use super::RayCounts;
+use crate::embree::{Device, GeometryOptions, Hit, Ray, Scene};
+use crate::scene as sc;
+
+/// How an object's surface is made.
+#[derive(Clone, Copy, Debug, PartialEq)]
+pub enum ObjectMode {
+    /// Embree's native triangles with interpolated shading normals.
+    Flat,
+}
+
+/// A light source. `shadows: false` lights cost no shadow rays.
+#[derive(Clone, Copy, Debug, PartialEq)]
+pub enum Light {
+    /// Light arriving from `direction` (pointing towards the light), irradiance `radiance`.
+    Directional { direction: Vec3, radiance: Vec3, shadows: bool },
+    /// A point light with radiant intensity `intensity` (falls off with distance squared).
+    Point { position: Vec3, intensity: Vec3, shadows: bool },
+    /// A spherical area light: soft shadows from `samples` stratified shadow rays per shading point.
+    Sphere { center: Vec3, radius: f32, intensity: Vec3, samples: u32 },
+}
+
+impl Light {
+    /// Whether this light needs shadow rays.
+    pub fn casts_shadows(&self) -> bool {
+        match *self {
+            Light::Directional { shadows, .. } | Light::Point { shadows, .. } => shadows,
+            Light::Sphere { .. } => true,
+        }
+    }
+}
+
+/// What a surface does to light, as the integrator uses it.
+#[derive(Clone, Copy, Debug, PartialEq)]
+pub struct Surface {
+    pub kd: Vec3,
+    /// Mirror reflectance (MTL `illum` 3, 5, 7: `Ks`); zero = no reflection rays.
+    pub mirror: Vec3,
+    /// Transmittance (MTL `d` < 1 or `Tr` > 0); zero = no refraction rays.
+    pub transmission: f32,
+    /// Index of refraction (MTL `Ni`).
+    pub ior: f32,
+}
+
+impl Surface {
+    pub fn diffuse(kd: Vec3) -> Self {
+        Surface { kd, mirror: Vec3::ZERO, transmission: 0.0, ior: 1.0 }
+    }
+
+    /// The surface an MTL material calls for.
+    pub fn from_material(m: &sc::Material) -> Self {
+        let mirror = match m.illum {
+            Some(3 | 5 | 7) => m.ks,
+            _ => Vec3::ZERO,
+        };
+        let transmission = (1.0 - m.dissolve).clamp(0.0, 1.0);
+        let ior = if m.ni.is_finite() && m.ni >= 1.0 { m.ni } else { 1.0 };
+        Surface { kd: m.kd, mirror, transmission, ior }
+    }
+
+    pub fn reflects(&self) -> bool {
+        self.mirror.max_element() > 0.0
+    }
+
+    pub fn refracts(&self) -> bool {
+        self.transmission > 0.0
+    }
+}
+
+/// Ambient occlusion, only when asked for.
+#[derive(Clone, Copy, Debug, PartialEq)]
+pub struct AmbientOcclusion {
+    pub samples: u32,
+    /// Occluders farther than this (world units) do not count.
+    pub distance: f32,
+}
+
+/// The set of effects the scene calls for, derived before rendering.
+#[derive(Clone, Debug, PartialEq)]
+pub struct Effects {
+    /// Lights that cast shadows (indices into `World::lights`).
+    pub shadow_lights: Vec<usize>,
+    /// Lights with soft shadows (area lights).
+    pub soft_shadow_lights: Vec<usize>,
+    /// Objects whose material reflects / refracts (names).
+    pub reflective: Vec<String>,
+    pub refractive: Vec<String>,
+    pub ambient_occlusion: Option<AmbientOcclusion>,
+    /// Maximum depth of reflection/refraction recursion.
+    pub max_depth: u32,
+}
+
+impl std::fmt::Display for Effects {
+    fn fmt(&self, f: &mut std::fmt::Formatter<'_>) -> std::fmt::Result {
+        let mut parts = vec!["direct lighting".to_string()];
+        if !self.shadow_lights.is_empty() {
+            parts.push(format!("shadows ({} lights)", self.shadow_lights.len()));
+        }
+        if !self.soft_shadow_lights.is_empty() {
+            parts.push(format!("soft shadows ({} area lights)", self.soft_shadow_lights.len()));
+        }
+        if !self.reflective.is_empty() {
+            parts.push(format!("reflection ({} objects)", self.reflective.len()));
+        }
+        if !self.refractive.is_empty() {
+            parts.push(format!("refraction ({} objects)", self.refractive.len()));
+        }
+        if let Some(ao) = self.ambient_occlusion {
+            parts.push(format!("ambient occlusion ({} samples)", ao.samples));
+        }
+        write!(f, "effects: {}", parts.join(", "))
+    }
+}
+
+/// One object as the shader sees it.
+#[derive(Clone, Debug)]
+pub struct Object {
+    pub name: String,
+    pub mode: ObjectMode,
+    pub normals: Vec<Vec3>,
+    pub positions: Vec<Vec3>,
+    pub indices: Vec<[u32; 3]>,
+    pub surface: Surface,
+}
+
+/// Per-object choices (from the CLI or a scene file).
+#[derive(Clone, Debug)]
+pub struct ObjectSettings {
+    pub mode: ObjectMode,
+}
+
+/// Objects in one committed Embree scene, indexed by geomID, and the lights.
+pub struct World {
+    pub device: Device,
+    pub scene: Scene,
+    pub objects: Vec<Object>,
+    pub lights: Vec<Light>,
+    pub ambient: Vec3,
+    pub background: Vec3,
+    pub bounds: (Vec3, Vec3),
+    pub ambient_occlusion: Option<AmbientOcclusion>,
+    pub max_depth: u32,
+}
+
+/// The default key light: from the upper left behind the camera, casting shadows.
+pub fn default_lights() -> Vec<Light> {
+    vec![Light::Directional {
+        direction: Vec3::new(-0.5, 0.7, 0.6).normalize(),
+        radiance: Vec3::splat(0.85),
+        shadows: true,
+    }]
+}
+
+impl World {
+    /// Build a world from a loaded scene; `settings(i)` chooses the mode of mesh `i`.
+    pub fn from_scene(
+        device: &Device,
+        input: &sc::Scene,
+        settings: impl Fn(usize, &sc::Mesh) -> ObjectSettings,
+    ) -> anyhow::Result<World> {
+        let mut scene = Scene::new(device)?;
+        let mut objects = Vec::with_capacity(input.meshes.len());
+        for (i, mesh) in input.meshes.iter().enumerate() {
+            let s = settings(i, mesh);
+            let id = match s.mode {
+                ObjectMode::Flat => scene
+                    .attach_triangles(&mesh.positions, &mesh.indices, GeometryOptions::default())
+                    .with_context(|| format!("object {:?}", mesh.name))?,
+            };
+            // geomIDs are handed out densely from 0 in attach order on a fresh scene.
+            anyhow::ensure!(id as usize == objects.len(), "unexpected geomID {id}");
+            let surface = mesh
+                .material
+                .and_then(|m| input.materials.get(m))
+                .map(Surface::from_material)
+                .unwrap_or(Surface::diffuse(Vec3::splat(0.7)));
+            objects.push(Object {
+                name: mesh.name.clone(),
+                mode: s.mode,
+                normals: mesh.normals.clone(),
+                positions: mesh.positions.clone(),
+                indices: mesh.indices.clone(),
+                surface,
+            });
+        }
+        scene.commit()?;
+        Ok(World {
+            device: device.clone(),
+            scene,
+            objects,
+            lights: default_lights(),
+            ambient: Vec3::splat(0.12),
+            background: Vec3::new(0.02, 0.02, 0.03),
+            bounds: input.bounds(),
+            ambient_occlusion: None,
+            max_depth: 6,
+        })
+    }
+
+    /// The effects this world calls for: nothing more is ever simulated.
+    pub fn effects(&self) -> Effects {
+        let pick = |f: fn(&Surface) -> bool| {
+            self.objects.iter().filter(|o| f(&o.surface)).map(|o| o.name.clone()).collect::<Vec<_>>()
+        };
+        Effects {
+            shadow_lights: (0..self.lights.len()).filter(|&i| self.lights[i].casts_shadows()).collect(),
+            soft_shadow_lights: (0..self.lights.len())
+                .filter(|&i| matches!(self.lights[i], Light::Sphere { .. }))
+                .collect(),
+            reflective: pick(Surface::reflects),
+            refractive: pick(Surface::refracts),
+            ambient_occlusion: self.ambient_occlusion,
+            max_depth: self.max_depth,
+        }
+    }
+
+    /// Radiance along a camera ray; `rng` feeds area-light and AO sampling.
+    pub fn shade(&self, ray: Ray, counts: &mut RayCounts, rng: &mut Rng) -> Vec3 {
+        counts.primary += 1;
+        self.radiance(ray, 0, counts, rng)
+    }
+
+    fn radiance(&self, ray: Ray, depth: u32, counts: &mut RayCounts, rng: &mut Rng) -> Vec3 {
+        let Some(hit) = self.scene.intersect1(ray) else {
+            return self.background;
+        };
+        let Some(obj) = self.objects.get(hit.geom_id as usize) else {
+            return self.background;
+        };
+        let sp = obj.surface_point(&hit, &ray);
+        let s = obj.surface;
+        let mut c = Vec3::ZERO;
+
+        // Direct light.
+        if s.kd.max_element() > 0.0 {
+            let mut e = self.ambient;
+            if let Some(ao) = self.ambient_occlusion {
+                e *= self.ambient_visibility(&sp, ao, counts, rng);
+            }
+            for light in &self.lights {
+                e += self.irradiance(light, &sp, counts, rng);
+            }
+            c += s.kd * e * (1.0 - s.transmission);
+        }
+
+        if depth >= self.max_depth {
+            return c;
+        }
+        let d = ray.dir.normalize();
+        // Mirror reflection, only for materials that call for it.
+        if s.reflects() {
+            let r = d - 2.0 * d.dot(sp.n) * sp.n;
+            counts.reflection += 1;
+            let o = sp.offset_origin(r);
+            c += s.mirror * self.radiance(Ray::new(o, r), depth + 1, counts, rng);
+        }
+        // Refraction, only for transparent materials.
+        if s.refracts() {
+            let (n, eta) = if sp.entering { (sp.n, 1.0 / s.ior) } else { (sp.n, s.ior) };
+            let cos_i = -d.dot(n);
+            let k = 1.0 - eta * eta * (1.0 - cos_i * cos_i);
+            let dir = if k < 0.0 {
+                d + 2.0 * cos_i * n // total internal reflection
+            } else {
+                eta * d + (eta * cos_i - k.sqrt()) * n
+            };
+            counts.refraction += 1;
+            let o = sp.offset_origin(dir);
+            c += s.transmission * self.radiance(Ray::new(o, dir), depth + 1, counts, rng);
+        }
+        c
+    }
+
+    /// Irradiance from one light at a shading point, with shadow rays only if the light casts them.
+    fn irradiance(&self, light: &Light, sp: &SurfacePoint, counts: &mut RayCounts, rng: &mut Rng) -> Vec3 {
+        match *light {
+            Light::Directional { direction, radiance, shadows } => {
+                let l = direction.normalize_or_zero();
+                let cos = sp.n.dot(l);
+                if cos <= 0.0 {
+                    return Vec3::ZERO;
+                }
+                if shadows && self.blocked(sp, l, f32::INFINITY, counts) {
+                    return Vec3::ZERO;
+                }
+                radiance * cos
+            }
+            Light::Point { position, intensity, shadows } => {
+                let to = position - sp.p;
+                let d2 = to.length_squared();
+                let l = to / d2.sqrt();
+                let cos = sp.n.dot(l);
+                if cos <= 0.0 || d2 == 0.0 {
+                    return Vec3::ZERO;
+                }
+                if shadows && self.blocked(sp, to, 1.0, counts) {
+                    return Vec3::ZERO;
+                }
+                intensity * cos / d2
+            }
+            Light::Sphere { center, radius, intensity, samples } => {
+                let n = samples.max(1);
+                let mut sum = Vec3::ZERO;
+                for k in 0..n {
+                    // A stratified point on the sphere (uniform in z and angle).
+                    let (a, b) = rng.stratified(k, n);
+                    let z = 1.0 - 2.0 * a;
+                    let r = (1.0 - z * z).max(0.0).sqrt();
+                    let phi = std::f32::consts::TAU * b;
+                    let q = center + radius * Vec3::new(r * phi.cos(), r * phi.sin(), z);
+                    let to = q - sp.p;
+                    let d2 = to.length_squared();
+                    let cos = sp.n.dot(to) / d2.sqrt();
+                    if cos <= 0.0 || d2 == 0.0 {
+                        continue;
+                    }
+                    if !self.blocked(sp, to, 1.0, counts) {
+                        sum += intensity * cos / d2;
+                    }
+                }
+                sum / n as f32
+            }
+        }
+    }
+
+    /// Trace a shadow ray from the offset surface point along `dir` over `(0, tfar)`.
+    fn blocked(&self, sp: &SurfacePoint, dir: Vec3, tfar: f32, counts: &mut RayCounts) -> bool {
+        counts.shadow += 1;
+        let o = sp.offset_origin(dir);
+        self.scene.occluded1(Ray::new(o, dir).with_range(0.0, tfar))
+    }
+
+    /// Fraction of the cosine-weighted hemisphere not blocked within `ao.distance`.
+    fn ambient_visibility(&self, sp: &SurfacePoint, ao: AmbientOcclusion, counts: &mut RayCounts, rng: &mut Rng) -> f32 {
+        let n = ao.samples.max(1);
+        let (t, b) = orthonormal_basis(sp.n);
+        let mut free = 0;
+        for k in 0..n {
+            let (a, c) = rng.stratified(k, n);
+            let r = a.sqrt();
+            let phi = std::f32::consts::TAU * c;
+            let d = r * phi.cos() * t + r * phi.sin() * b + (1.0 - a).max(0.0).sqrt() * sp.n;
+            counts.ambient_occlusion += 1;
+            let o = sp.offset_origin(d);
+            if !self.scene.occluded1(Ray::new(o, d).with_range(0.0, ao.distance)) {
+                free += 1;
+            }
+        }
+        free as f32 / n as f32
+    }
+}
+
+/// A shading point: position with its float error bound, normals facing the incoming ray.
+#[derive(Clone, Copy, Debug)]
+pub struct SurfacePoint {
+    pub p: Vec3,
+    /// Conservative bound on the absolute error of `p`, per axis.
+    pub p_error: Vec3,
+    /// Geometric normal (unit), on the side the ray came from.
+    pub ng: Vec3,
+    /// Shading normal (unit), on the same side as `ng`.
+    pub n: Vec3,
+    /// Whether the ray arrived from the front (the side `dp/du x dp/dv` points to).
+    pub entering: bool,
+}
+
+/// `gamma(n) = n u / (1 - n u)` with `u` the f32 unit roundoff: the bound on the relative
+/// error of `n` successive f32 operations (pbrt-v4, §6.8).
+pub fn gamma(n: i32) -> f32 {
+    let u = f32::EPSILON * 0.5;
+    (n as f32 * u) / (1.0 - n as f32 * u)
+}
+
+impl SurfacePoint {
+    /// A ray origin just off the surface on the side `dir` leaves towards, moved by the error
+    /// bound of `p` projected on the normal (pbrt-v4's OffsetRayOrigin), so the new ray cannot
+    /// re-hit the surface it starts on because of rounding.
+    pub fn offset_origin(&self, dir: Vec3) -> Vec3 {
+        let d = self.ng.abs().dot(self.p_error);
+        let mut offset = d * self.ng;
+        if dir.dot(self.ng) < 0.0 {
+            offset = -offset;
+        }
+        let mut po = self.p + offset;
+        // Round away from p so the offset is not lost to rounding.
+        for i in 0..3 {
+            if offset[i] > 0.0 {
+                po[i] = next_float_up(po[i]);
+            } else if offset[i] < 0.0 {
+                po[i] = next_float_down(po[i]);
+            }
+        }
+        po
+    }
+}
+
+pub fn next_float_up(x: f32) -> f32 {
+    if x.is_infinite() && x > 0.0 {
+        return x;
+    }
+    let x = if x == -0.0 { 0.0 } else { x };
+    let b = x.to_bits();
+    f32::from_bits(if x >= 0.0 { b + 1 } else { b - 1 })
+}
+
+pub fn next_float_down(x: f32) -> f32 {
+    -next_float_up(-x)
+}
+
+fn orthonormal_basis(n: Vec3) -> (Vec3, Vec3) {
+    // Duff et al. 2017, "Building an Orthonormal Basis, Revisited".
+    let sign = 1.0f32.copysign(n.z);
+    let a = -1.0 / (sign + n.z);
+    let b = n.x * n.y * a;
+    (
+        Vec3::new(1.0 + sign * n.x * n.x * a, sign * b, -sign * n.x),
+        Vec3::new(b, sign + n.y * n.y * a, -n.y),
+    )
+}
+
+impl Object {
+    /// The interpolated vertex normal at `(u, v)` of triangle `prim` (Embree's convention:
+    /// weights `1-u-v, u, v`), or `None` where it is degenerate.
+    pub fn interpolated_normal(&self, prim: u32, u: f32, v: f32) -> Option<Vec3> {
+        let t = self.indices.get(prim as usize)?;
+        let n = |i: u32| self.normals.get(i as usize).copied().unwrap_or(Vec3::ZERO);
+        ((1.0 - u - v) * n(t[0]) + u * n(t[1]) + v * n(t[2])).try_normalize()
+    }
+
+    /// The shading point of a hit: position recomputed from `(u, v)` on the surface, with its
+    /// error bound, and normals facing the ray.
+    pub fn surface_point(&self, hit: &Hit, ray: &Ray) -> SurfacePoint {
+        let ng_raw = hit.ng.try_normalize().unwrap_or(-ray.dir.normalize_or_zero());
+        let (p, p_error, n_shade) = match self.mode {
+            ObjectMode::Flat => {
+                let (p, err) = self.flat_point(hit.prim_id, hit.u, hit.v).unwrap_or_else(|| {
+                    let p = ray.at(hit.t);
+                    (p, gamma(7) * (ray.org.abs() + (hit.t * ray.dir).abs()))
+                });
+                (p, err, self.interpolated_normal(hit.prim_id, hit.u, hit.v).unwrap_or(ng_raw))
+            }
+        };
+        let entering = ng_raw.dot(ray.dir) < 0.0;
+        let ng = if entering { ng_raw } else { -ng_raw };
+        // The shading normal on the same side as the geometric one.
+        let n = if n_shade.dot(ng) < 0.0 { -n_shade } else { n_shade };
+        SurfacePoint { p, p_error, ng, n, entering }
+    }
+
+    /// `(1-u-v) p0 + u p1 + v p2` with its rounding error bound (pbrt-v4's barycentric bound).
+    fn flat_point(&self, prim: u32, u: f32, v: f32) -> Option<(Vec3, Vec3)> {
+        let t = self.indices.get(prim as usize)?;
+        let p = |k: usize| self.positions.get(t[k] as usize).copied();
+        let (p0, p1, p2) = (p(0)?, p(1)?, p(2)?);
+        let w = 1.0 - u - v;
+        let pt = w * p0 + u * p1 + v * p2;
+        let err = gamma(7) * ((w * p0).abs() + (u * p1).abs() + (v * p2).abs());
+        Some((pt, err))
+    }
+}
+
+/// A small deterministic generator (SplitMix64), seeded per pixel and sample so images do not
+/// depend on thread count or scheduling.
+#[derive(Clone, Debug)]
+pub struct Rng(u64);
+
+impl Rng {
+    pub fn new(seed: u64) -> Self {
+        Rng(seed)
+    }
+
+    pub fn next_u64(&mut self) -> u64 {
+        self.0 = self.0.wrapping_add(0x9E37_79B9_7F4A_7C15);
+        let mut z = self.0;
+        z = (z ^ (z >> 30)).wrapping_mul(0xBF58_476D_1CE4_E5B9);
+        z = (z ^ (z >> 27)).wrapping_mul(0x94D0_49BB_1331_11EB);
+        z ^ (z >> 31)
+    }
+
+    /// Uniform in [0, 1).
+    pub fn next_f32(&mut self) -> f32 {
+        (self.next_u64() >> 40) as f32 / (1u64 << 24) as f32
+    }
+
+    /// Sample `k` of `n` on a jittered grid over the unit square (plain jitter if `n` is not a square).
+    pub fn stratified(&mut self, k: u32, n: u32) -> (f32, f32) {
+        let (j1, j2) = (self.next_f32(), self.next_f32());
+        let m = (n as f32).sqrt() as u32;
+        if m * m == n && m > 1 {
+            (((k % m) as f32 + j1) / m as f32, ((k / m) as f32 + j2) / m as f32)
+        } else {
+            (j1, j2)
+        }
+    }
+}
