@@ -23,6 +23,9 @@ pub enum Command {
     Render(RenderArgs),
     /// Describe an OBJ file (objects, vertices, triangles, normals, bounds) and the Embree in use.
     Info(InfoArgs),
+    /// Measure every intersector (analytic, analytic+polish, Newton; f32 and f64) against an
+    /// independent reference on hard cases, and print a markdown table.
+    Accuracy(AccuracyArgs),
 }
 
 /// How surfaces are made.
@@ -92,6 +95,16 @@ pub struct InfoArgs {
     pub scene: PathBuf,
     #[command(flatten)]
     pub load: LoadArgs,
+}
+
+#[derive(Args, Debug)]
+pub struct AccuracyArgs {
+    /// Rays per category.
+    #[arg(long, default_value_t = 2000)]
+    pub rays: usize,
+    /// Seed of the case generator.
+    #[arg(long, default_value_t = 1)]
+    pub seed: u64,
 }
 
 /// Parse "x,y,z" into a vector of finite numbers.

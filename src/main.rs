@@ -30,6 +30,10 @@ fn run(cli: Cli) -> anyhow::Result<()> {
     match cli.command {
         Command::Render(args) => render_cmd(args),
         Command::Info(args) => info_cmd(args),
+        Command::Accuracy(args) => {
+            print!("{}", phongrt::phong::accuracy::report(args.rays, args.seed));
+            Ok(())
+        }
     }
 }
 

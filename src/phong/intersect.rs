@@ -1,0 +1,487 @@
+//! Ray–patch intersection: the analytic method of Ogaki & Tokuyoshi (conic pencil), an optional
+//! Newton polish, and a plain Newton–Raphson intersector for comparison.
+
+use super::patch::Patch;
+use super::real::{Real, V3};
+
+/// A hit: ray parameter and Embree-convention barycentrics.
+#[derive(Clone, Copy, Debug, PartialEq)]
+pub struct PatchHit<T> {
+    pub t: T,
+    pub u: T,
+    pub v: T,
+}
+
+/// Which solver to use.
+#[derive(Clone, Copy, Debug, PartialEq, Eq, Hash)]
+pub enum Method {
+    /// The paper's conic-pencil method.
+    Analytic,
+    /// The analytic root followed by Newton steps on `(u, v, t)`.
+    AnalyticPolished,
+    /// Newton–Raphson on `(u, v, t)` from the flat triangle's hit (the comparison the paper left open).
+    Newton,
+}
+
+/// A symmetric 3×3 conic matrix `[[a, c/2, d/2], [c/2, b, e/2], [d/2, e/2, f]]` for
+/// `a u² + b v² + c uv + d u + e v + f`, stored as the 6 polynomial coefficients.
+#[derive(Clone, Copy, Debug)]
+struct Conic<T> {
+    k: [T; 6], // a, b, c, d, e, f
+}
+
+impl<T: Real> Conic<T> {
+    fn mat(&self) -> [[T; 3]; 3] {
+        let h = T::from_f64(0.5);
+        let [a, b, c, d, e, f] = self.k;
+        [[a, c * h, d * h], [c * h, b, e * h], [d * h, e * h, f]]
+    }
+    fn norm(&self) -> T {
+        self.k.iter().fold(T::ZERO, |m, x| m.max(x.abs()))
+    }
+    fn at(&self, u: T, v: T) -> T {
+        let [a, b, c, d, e, f] = self.k;
+        a * u * u + b * v * v + c * u * v + d * u + e * v + f
+    }
+}
+
+fn det3<T: Real>(m: &[[T; 3]; 3]) -> T {
+    m[0][0] * (m[1][1] * m[2][2] - m[1][2] * m[2][1]) - m[0][1] * (m[1][0] * m[2][2] - m[1][2] * m[2][0])
+        + m[0][2] * (m[1][0] * m[2][1] - m[1][1] * m[2][0])
+}
+
+fn adj3<T: Real>(m: &[[T; 3]; 3]) -> [[T; 3]; 3] {
+    let c = |r0: usize, r1: usize, c0: usize, c1: usize| m[r0][c0] * m[r1][c1] - m[r0][c1] * m[r1][c0];
+    // adj = transpose of the cofactor matrix.
+    [
+        [c(1, 2, 1, 2), -c(0, 2, 1, 2), c(0, 1, 1, 2)],
+        [-c(1, 2, 0, 2), c(0, 2, 0, 2), -c(0, 1, 0, 2)],
+        [c(1, 2, 0, 1), -c(0, 2, 0, 1), c(0, 1, 0, 1)],
+    ]
+}
+
+fn trace_prod<T: Real>(a: &[[T; 3]; 3], b: &[[T; 3]; 3]) -> T {
+    let mut s = T::ZERO;
+    for i in 0..3 {
+        for j in 0..3 {
+            s = s + a[i][j] * b[j][i];
+        }
+    }
+    s
+}
+
+/// Real roots of `q2 x² + q1 x + q0`, without cancellation (citardauq form). Degree drops
+/// are handled; an identically zero polynomial has no isolated roots.
+pub fn solve_quadratic<T: Real>(q2: T, q1: T, q0: T) -> ([T; 2], usize) {
+    let z = T::ZERO;
+    let scale = q2.abs().max(q1.abs()).max(q0.abs());
+    if scale == z || !scale.is_finite() {
+        return ([z, z], 0);
+    }
+    let (q2, q1, q0) = (q2 / scale, q1 / scale, q0 / scale);
+    // Leading coefficient lost in rounding relative to the others: linear.
+    if q2.abs() <= T::gamma(4) * q1.abs().max(q0.abs()) * T::from_f64(1e-3) {
+        if q1 == z {
+            return ([z, z], 0);
+        }
+        return ([-q0 / q1, z], 1);
+    }
+    let disc = q1 * q1 - T::from_f64(4.0) * q2 * q0;
+    if disc < z {
+        // Tangency within rounding: keep the double root.
+        if disc > -T::gamma(8) * (q1 * q1 + (T::from_f64(4.0) * q2 * q0).abs()) {
+            return ([-q1 / (q2 + q2), z], 1);
+        }
+        return ([z, z], 0);
+    }
+    let s = disc.sqrt();
+    let qq = -T::from_f64(0.5) * (q1 + s.copysign(q1));
+    if qq == z {
+        return ([z, z], 1);
+    }
+    let r0 = qq / q2;
+    let r1 = q0 / qq;
+    ([r0.min(r1), r0.max(r1)], 2)
+}
+
+/// Real roots of `c3 x³ + c2 x² + c1 x + c0` (up to 3), each polished by Newton steps.
+pub fn solve_cubic<T: Real>(c3: T, c2: T, c1: T, c0: T) -> ([T; 3], usize) {
+    let z = T::ZERO;
+    let scale = c3.abs().max(c2.abs()).max(c1.abs()).max(c0.abs());
+    if scale == z || !scale.is_finite() {
+        return ([z; 3], 0);
+    }
+    let (c3, c2, c1, c0) = (c3 / scale, c2 / scale, c1 / scale, c0 / scale);
+    if c3.abs() <= T::gamma(16) {
+        let (r, n) = solve_quadratic(c2, c1, c0);
+        return ([r[0], r[1], z], n);
+    }
+    let (a, b, c) = (c2 / c3, c1 / c3, c0 / c3);
+    let third = T::from_f64(1.0 / 3.0);
+    let q = (a * a - T::from_f64(3.0) * b) * T::from_f64(1.0 / 9.0);
+    let r = (T::from_f64(2.0) * a * a * a - T::from_f64(9.0) * a * b + T::from_f64(27.0) * c) * T::from_f64(1.0 / 54.0);
+    let mut roots = [z; 3];
+    let n;
+    if r * r < q * q * q {
+        // Three real roots (trigonometric form).
+        let sq = q.sqrt();
+        let theta = T::from_f64((r / (sq * sq * sq)).to_f64().clamp(-1.0, 1.0).acos());
+        let m = T::from_f64(-2.0) * sq;
+        let tau = T::from_f64(2.0 * std::f64::consts::PI);
+        for (k, root) in roots.iter_mut().enumerate() {
+            let ang = (theta + tau * T::from_f64(k as f64)) * third;
+            *root = m * T::from_f64(ang.to_f64().cos()) - a * third;
+        }
+        n = 3;
+    } else {
+        let big_a = -(r.abs() + (r * r - q * q * q).max(z).sqrt()).cbrt().copysign(r);
+        let big_b = if big_a == z { z } else { q / big_a };
+        roots[0] = big_a + big_b - a * third;
+        n = 1;
+    }
+    // Newton polish on the normalised cubic.
+    for root in roots.iter_mut().take(n) {
+        let mut x = *root;
+        for _ in 0..2 {
+            let f = ((x + a) * x + b) * x + c;
+            let df = (T::from_f64(3.0) * x + a + a) * x + b;
+            if df == z {
+                break;
+            }
+            let nx = x - f / df;
+            if !nx.is_finite() {
+                break;
+            }
+            x = nx;
+        }
+        *root = x;
+    }
+    (roots, n)
+}
+
+/// Split a degenerate conic into its two lines `(l0, l1, l2)`: `l0 u + l1 v + l2 = 0`.
+/// Returns `None` for a point-like conic (a pair of complex lines).
+fn split_degenerate<T: Real>(h: &[[T; 3]; 3]) -> Option<[[T; 3]; 2]> {
+    let hn = h.iter().flatten().fold(T::ZERO, |m, x| m.max(x.abs()));
+    if hn == T::ZERO {
+        return None;
+    }
+    let b = adj3(h);
+    let bn = b.iter().flatten().fold(T::ZERO, |m, x| m.max(x.abs()));
+    // Rank 1 (a double line): the adjugate vanishes up to rounding.
+    if bn <= T::gamma(32) * hn * hn {
+        let i = (0..3)
+            .max_by(|&i, &j| {
+                let ni = h[i][0].abs() + h[i][1].abs() + h[i][2].abs();
+                let nj = h[j][0].abs() + h[j][1].abs() + h[j][2].abs();
+                ni.partial_cmp(&nj).unwrap_or(std::cmp::Ordering::Equal)
+            })
+            .unwrap_or(0);
+        return Some([h[i], h[i]]);
+    }
+    // Rank 2: adj(H) = -p pᵀ for two real lines meeting at p (Richter-Gebert, §11.3).
+    let i = (0..3)
+        .min_by(|&i, &j| b[i][i].partial_cmp(&b[j][j]).unwrap_or(std::cmp::Ordering::Equal))
+        .unwrap_or(0);
+    if b[i][i] > T::ZERO || !(b[i][i] < T::ZERO || bn > T::ZERO) {
+        return None; // point-like
+    }
+    let beta = (-b[i][i]).max(T::ZERO).sqrt();
+    if beta == T::ZERO {
+        return None;
+    }
+    let p = [b[0][i] / beta, b[1][i] / beta, b[2][i] / beta];
+    let c = [
+        [h[0][0], h[0][1] + p[2], h[0][2] - p[1]],
+        [h[1][0] - p[2], h[1][1], h[1][2] + p[0]],
+        [h[2][0] + p[1], h[2][1] - p[0], h[2][2]],
+    ];
+    let (mut bi, mut bj, mut bm) = (0, 0, T::ZERO);
+    for (r, row) in c.iter().enumerate() {
+        for (s, x) in row.iter().enumerate() {
+            if x.abs() > bm {
+                bm = x.abs();
+                bi = r;
+                bj = s;
+            }
+        }
+    }
+    if bm == T::ZERO {
+        return None;
+    }
+    Some([c[bi], [c[0][bj], c[1][bj], c[2][bj]]])
+}
+
+/// Intersect the line `l` with the conic `k`: up to 2 points `(u, v)`.
+fn line_conic<T: Real>(l: [T; 3], k: &Conic<T>) -> ([(T, T); 2], usize) {
+    let z = T::ZERO;
+    let ll = l[0] * l[0] + l[1] * l[1];
+    if !(ll > z) || !ll.is_finite() {
+        return ([(z, z); 2], 0); // the line at infinity
+    }
+    let inv = T::ONE / ll.sqrt();
+    let (n0, n1, n2) = (l[0] * inv, l[1] * inv, l[2] * inv);
+    let (qx, qy) = (-n2 * n0, -n2 * n1);
+    let (rx, ry) = (-n1, n0);
+    let [a, b, c, d, e, _] = k.k;
+    let two = T::ONE + T::ONE;
+    let s2 = a * rx * rx + b * ry * ry + c * rx * ry;
+    let s1 = two * a * qx * rx + two * b * qy * ry + c * (qx * ry + qy * rx) + d * rx + e * ry;
+    let s0 = k.at(qx, qy);
+    let (r, n) = solve_quadratic(s2, s1, s0);
+    let mut out = [(z, z); 2];
+    for i in 0..n {
+        out[i] = (qx + r[i] * rx, qy + r[i] * ry);
+    }
+    (out, n)
+}
+
+/// A unit vector pair `(n1, n2)` orthogonal to `d` and to each other (Duff et al. 2017).
+fn planes_for<T: Real>(d: V3<T>) -> Option<(V3<T>, V3<T>)> {
+    let d = d.normalized()?;
+    let sign = T::ONE.copysign(d.z);
+    let a = -T::ONE / (sign + d.z);
+    let b = d.x * d.y * a;
+    Some((
+        V3::new(T::ONE + sign * d.x * d.x * a, sign * b, -sign * d.x),
+        V3::new(b, sign + d.y * d.y * a, -d.y),
+    ))
+}
+
+/// Slab test of the ray against the patch's local bounds over `(tmin, tmax)`.
+#[inline(always)]
+fn hits_bounds<T: Real>(p: &Patch<T>, o: V3<T>, d: V3<T>, tmin: T, tmax: T) -> bool {
+    let mut t0 = tmin;
+    let mut t1 = tmax;
+    for (oo, dd, lo, hi) in [(o.x, d.x, p.lo.x, p.hi.x), (o.y, d.y, p.lo.y, p.hi.y), (o.z, d.z, p.lo.z, p.hi.z)] {
+        if dd == T::ZERO {
+            if oo < lo || oo > hi {
+                return false;
+            }
+            continue;
+        }
+        let inv = T::ONE / dd;
+        let (mut a, mut b) = ((lo - oo) * inv, (hi - oo) * inv);
+        if a > b {
+            std::mem::swap(&mut a, &mut b);
+        }
+        // Widen by the rounding of the divisions (pbrt-v4 Bounds3::IntersectP uses 1 + 2γ(3)).
+        b = b * (T::ONE + T::gamma(3) + T::gamma(3));
+        t0 = t0.max(a);
+        t1 = t1.min(b);
+        if t0 > t1 {
+            return false;
+        }
+    }
+    true
+}
+
+/// How far outside `[0, 1]` a barycentric may be and still count as inside: the parameter
+/// error of the f32/f64 solve after its Newton step, so that a ray through a shared edge is
+/// reported by at least one of the two patches (no cracks).
+fn domain_tolerance<T: Real>() -> T {
+    T::gamma(64)
+}
+
+#[inline(always)]
+fn inside<T: Real>(u: T, v: T) -> bool {
+    let tol = domain_tolerance::<T>();
+    u >= -tol && v >= -tol && T::ONE - u - v >= -tol
+}
+
+/// One Newton step on `P(u,v) - o - t d = 0` (local frame). Returns `None` if singular.
+#[inline(always)]
+fn newton_step<T: Real>(p: &Patch<T>, o: V3<T>, d: V3<T>, u: T, v: T, t: T) -> Option<(T, T, T)> {
+    let (pu, pv) = p.partials_local(u, v);
+    let r = p.eval_local(u, v) - o - d * t;
+    // Solve [pu pv -d] [du dv dt]ᵀ = -r by Cramer's rule.
+    let nd = -d;
+    let det = pu.dot(pv.cross(nd));
+    if det == T::ZERO || !det.is_finite() {
+        return None;
+    }
+    let inv = T::ONE / det;
+    let du = -r.dot(pv.cross(nd)) * inv;
+    let dv = -pu.dot(r.cross(nd)) * inv;
+    let dt = -pu.dot(pv.cross(r)) * inv;
+    let (nu, nv, nt) = (u + du, v + dv, t + dt);
+    (nu.is_finite() && nv.is_finite() && nt.is_finite()).then_some((nu, nv, nt))
+}
+
+/// The paper's analytic intersection in the local frame; `polish` adds one Newton step per root.
+fn analytic_local<T: Real>(p: &Patch<T>, o: V3<T>, d: V3<T>, tmin: T, tmax: T, polish: bool) -> Option<PatchHit<T>> {
+    let (n1, n2) = planes_for(d)?;
+    // The two conics: n_k · (P(u,v) - o) = 0.
+    let conic = |n: V3<T>| Conic {
+        k: [n.dot(p.a), n.dot(p.b), n.dot(p.c), n.dot(p.d), n.dot(p.e), n.dot(p.f - o)],
+    };
+    let (cf, cg) = (conic(n1), conic(n2));
+    let (nf, ng) = (cf.norm(), cg.norm());
+    if nf == T::ZERO || ng == T::ZERO {
+        // The ray lies in the patch's plane (a flat patch seen edge-on): no isolated hit.
+        return None;
+    }
+    let (m, n) = (cf.mat(), cg.mat());
+    // det(x M + N) = x³ det M + x² tr(adj(M) N) + x tr(M adj(N)) + det N.
+    let c3 = det3(&m);
+    let c2 = trace_prod(&adj3(&m), &n);
+    let c1 = trace_prod(&m, &adj3(&n));
+    let c0 = det3(&n);
+    // Compare with the size of the terms: a pencil of conics that are all degenerate (a flat
+    // patch: both conics are lines times the line at infinity) gives a zero cubic.
+    let term = nf.max(ng);
+    let cubic_scale = term * term * term;
+    let mut xs = [T::ZERO; 4];
+    let mut nx;
+    let cn = c3.abs().max(c2.abs()).max(c1.abs()).max(c0.abs());
+    if cn <= T::gamma(64) * cubic_scale {
+        xs[0] = T::ZERO; // every member is degenerate: take G itself
+        nx = 1;
+    } else {
+        let (r, k) = solve_cubic(c3, c2, c1, c0);
+        xs[..3].copy_from_slice(&r);
+        nx = k;
+        // det M ≈ 0: M itself (x = ∞) is a degenerate member too.
+        if c3.abs() <= T::gamma(64) * cubic_scale && nx < 4 {
+            xs[nx] = T::from_f64(f64::INFINITY);
+            nx += 1;
+        }
+        // Best-conditioned first: roots of small |x| keep N dominant (we intersect with M).
+        xs[..nx].sort_by(|a, b| a.abs().partial_cmp(&b.abs()).unwrap_or(std::cmp::Ordering::Equal));
+    }
+
+    let mut best: Option<PatchHit<T>> = None;
+    let dd = d.dot(d);
+    let size_tol = T::gamma(64).sqrt(); // residual gate before polish (relative to the unit patch)
+    for &x in &xs[..nx] {
+        // The degenerate member, scaled so its entries stay O(1); intersect its lines with the
+        // conic that dominates the other side of the pencil.
+        let (h, other) = if !x.is_finite() {
+            (m, &cg)
+        } else if x.abs() <= T::ONE {
+            let mut h = n;
+            for i in 0..3 {
+                for j in 0..3 {
+                    h[i][j] = x * m[i][j] + n[i][j];
+                }
+            }
+            (h, &cf)
+        } else {
+            let ix = T::ONE / x;
+            let mut h = m;
+            for i in 0..3 {
+                for j in 0..3 {
+                    h[i][j] = m[i][j] + ix * n[i][j];
+                }
+            }
+            (h, &cg)
+        };
+        let Some(lines) = split_degenerate(&h) else { continue };
+        let mut found_any = false;
+        for l in lines {
+            let (pts, k) = line_conic(l, other);
+            for &(u0, v0) in &pts[..k] {
+                let (mut u, mut v) = (u0, v0);
+                let q = p.eval_local(u, v) - o;
+                let mut t = q.dot(d) / dd;
+                // Reject spurious roots (from rounding in the pencil) by the distance to the ray.
+                let res = (q - d * t).length();
+                if !(res <= size_tol) {
+                    continue;
+                }
+                if polish {
+                    for _ in 0..2 {
+                        match newton_step(p, o, d, u, v, t) {
+                            Some((a, b, c)) => {
+                                u = a;
+                                v = b;
+                                t = c;
+                            }
+                            None => break,
+                        }
+                    }
+                }
+                found_any = true;
+                if inside(u, v) && t > tmin && t < tmax && best.is_none_or(|b| t < b.t) {
+                    best = Some(PatchHit { t, u, v });
+                }
+            }
+        }
+        if found_any {
+            // One well-conditioned degenerate member gives every intersection point.
+            break;
+        }
+    }
+    best.map(|h| {
+        // Report barycentrics clamped into the triangle.
+        let u = h.u.max(T::ZERO);
+        let v = h.v.max(T::ZERO);
+        let s = u + v;
+        let (u, v) = if s > T::ONE { (u / s, v / s) } else { (u, v) };
+        PatchHit { t: h.t, u, v }
+    })
+}
+
+/// Newton–Raphson on `(u, v, t)` from the hit of the ray with the flat triangle's plane.
+fn newton_local<T: Real>(p: &Patch<T>, o: V3<T>, d: V3<T>, tmin: T, tmax: T) -> Option<PatchHit<T>> {
+    // Start: the flat triangle P0 + u (P1 - P0) + v (P2 - P0), unclamped.
+    let p0 = p.f;
+    let p1 = p.a + p.d + p.f; // P(1, 0)
+    let p2 = p.b + p.e + p.f; // P(0, 1)
+    let (e1, e2) = (p1 - p0, p2 - p0);
+    let pv = d.cross(e2);
+    let det = e1.dot(pv);
+    if det == T::ZERO || !det.is_finite() {
+        return None;
+    }
+    let inv = T::ONE / det;
+    let s = o - p0;
+    let mut u = s.dot(pv) * inv;
+    let q = s.cross(e1);
+    let mut v = d.dot(q) * inv;
+    let mut t = e2.dot(q) * inv;
+    let d_len = d.length();
+    for _ in 0..12 {
+        let (nu, nv, nt) = newton_step(p, o, d, u, v, t)?;
+        let step = (nu - u).abs().max((nv - v).abs()).max((nt - t).abs() * d_len);
+        u = nu;
+        v = nv;
+        t = nt;
+        if step <= T::gamma(8) {
+            break;
+        }
+    }
+    let res = (p.eval_local(u, v) - o - d * t).length();
+    if !(res <= T::gamma(256)) {
+        return None; // not converged
+    }
+    (inside(u, v) && t > tmin && t < tmax).then(|| {
+        let (u, v) = (u.max(T::ZERO), v.max(T::ZERO));
+        let s = u + v;
+        let (u, v) = if s > T::ONE { (u / s, v / s) } else { (u, v) };
+        PatchHit { t, u, v }
+    })
+}
+
+/// The nearest hit of `org + t dir`, `t` in the open interval `(tmin, tmax)`, by `method`.
+/// Never NaN: bad input (non-finite, zero direction, degenerate patch) gives `None`.
+#[inline]
+pub fn intersect<T: Real>(p: &Patch<T>, org: V3<T>, dir: V3<T>, tmin: T, tmax: T, method: Method) -> Option<PatchHit<T>> {
+    if p.degenerate || !org.is_finite() || !dir.is_finite() || tmin.to_f64().is_nan() || tmax.to_f64().is_nan() {
+        return None;
+    }
+    // To the local frame (t is unchanged).
+    let o = (org - p.center) * p.inv_scale;
+    let d = dir * p.inv_scale;
+    if !(o.is_finite() && d.is_finite()) || d.max_abs() == T::ZERO {
+        return None;
+    }
+    if !hits_bounds(p, o, d, tmin, tmax) {
+        return None;
+    }
+    match method {
+        Method::Analytic => analytic_local(p, o, d, tmin, tmax, false),
+        Method::AnalyticPolished => analytic_local(p, o, d, tmin, tmax, true),
+        Method::Newton => newton_local(p, o, d, tmin, tmax),
+    }
+}

@@ -1,0 +1,189 @@
+//! The Phong tessellation patch as a quadratic Bézier triangle, in a local frame.
+//!
+//! Embree's triangle convention: barycentrics `(w, u, v) = (1-u-v, u, v)` weight `(p0, p1, p2)`.
+//! Phong tessellation (Boubekeur & Alexa 2008) with shape factor `alpha`,
+//! `p_a(u,v) = (1-a) p(u,v) + a Σ_i b_i π_i(p(u,v))`, `π_i(q) = q - ((q-p_i)·n_i) n_i`,
+//! is the quadratic Bézier triangle with corner control points `p_i` and edge control points
+//! `P_ij = (1-a) (p_i+p_j)/2 + a (π_i(p_j) + π_j(p_i))/2`.
+//! A *straight* edge (for watertight creases) keeps `P_ij = (p_i+p_j)/2`: both patches beside a
+//! crease then share the straight edge whatever their normals.
+
+use super::real::{Real, V3};
+
+/// A patch, built in f64 and stored in the precision `T` of the solver that uses it.
+///
+/// Geometry lives in a local frame: `x_local = (x - center) * inv_scale`, with `center` the
+/// centroid of the corners and `1/inv_scale` the largest corner distance from it, so the solve
+/// does not lose accuracy with distance from the origin or with the patch size. Ray parameters
+/// `t` are the same in both frames.
+#[derive(Clone, Copy, Debug)]
+pub struct Patch<T> {
+    pub center: V3<T>,
+    pub scale: T,
+    pub inv_scale: T,
+    /// Polynomial coefficients (local frame): `P(u,v) = A u² + B v² + C uv + D u + E v + F`.
+    pub a: V3<T>,
+    pub b: V3<T>,
+    pub c: V3<T>,
+    pub d: V3<T>,
+    pub e: V3<T>,
+    pub f: V3<T>,
+    /// Unit vertex normals (for shading).
+    pub n: [V3<T>; 3],
+    /// Conservative local-frame bounds (hull of the 6 control points, padded).
+    pub lo: V3<T>,
+    pub hi: V3<T>,
+    /// Whether the patch has zero area or non-finite input: it is never hit.
+    pub degenerate: bool,
+}
+
+/// The 6 control points of the quadratic Bézier triangle, world space, f64:
+/// `[P0, P1, P2, P01, P12, P20]`.
+pub fn control_points(p: [V3<f64>; 3], n: [V3<f64>; 3], alpha: f64, straight: [bool; 3]) -> [V3<f64>; 6] {
+    let proj = |i: usize, q: V3<f64>| q - n[i] * (q - p[i]).dot(n[i]);
+    let edge = |i: usize, j: usize, k: usize| {
+        let mid = (p[i] + p[j]) * 0.5;
+        if straight[k] {
+            return mid;
+        }
+        let bent = (proj(i, p[j]) + proj(j, p[i])) * 0.5;
+        mid * (1.0 - alpha) + bent * alpha
+    };
+    // Edge k runs from corner k to corner k+1: 0 = (p0,p1), 1 = (p1,p2), 2 = (p2,p0).
+    [p[0], p[1], p[2], edge(0, 1, 0), edge(1, 2, 1), edge(2, 0, 2)]
+}
+
+impl<T: Real> Patch<T> {
+    /// A patch from 3 positions, 3 normals (normalised here) and `alpha` in [0, 1].
+    pub fn new(p: [glam::DVec3; 3], n: [glam::DVec3; 3], alpha: f64) -> Self {
+        Self::with_straight_edges(p, n, alpha, [false; 3])
+    }
+
+    /// As [`Patch::new`], with edges `k` (corner k to k+1) kept straight where `straight[k]`.
+    pub fn with_straight_edges(p: [glam::DVec3; 3], n: [glam::DVec3; 3], alpha: f64, straight: [bool; 3]) -> Self {
+        let p: [V3<f64>; 3] = p.map(V3::from);
+        let nn: [Option<V3<f64>>; 3] = n.map(|v| V3::from(v).normalized());
+        let alpha = if alpha.is_finite() { alpha.clamp(0.0, 1.0) } else { 0.0 };
+        let finite = p.iter().all(|q| q.is_finite());
+        let area = (p[1] - p[0]).cross(p[2] - p[0]).length();
+        let zero_normal = nn.iter().any(|x| x.is_none());
+        // A zero normal cannot define a tangent plane: such a patch is degenerate.
+        let degenerate = !finite || !(area > 0.0) || zero_normal;
+        let n = nn.map(|x| x.unwrap_or(V3::zero()));
+        let center = (p[0] + p[1] + p[2]) * (1.0 / 3.0);
+        let scale = p.iter().map(|q| (*q - center).length()).fold(0.0, f64::max);
+        let (scale, inv) = if degenerate || !(scale > 0.0) { (1.0, 1.0) } else { (scale, 1.0 / scale) };
+        let q = control_points(p, n, alpha, straight).map(|c| (c - center) * inv);
+        let [p0, p1, p2, p01, p12, p20] = q;
+        // Bernstein to power basis (w = 1-u-v).
+        let a = p0 + p1 - p01 * 2.0;
+        let b = p0 + p2 - p20 * 2.0;
+        let c = (p0 - p01 + p12 - p20) * 2.0;
+        let d = (p01 - p0) * 2.0;
+        let e = (p20 - p0) * 2.0;
+        let f = p0;
+        let mut lo = q[0];
+        let mut hi = q[0];
+        for x in &q[1..] {
+            lo = lo.min_elem(*x);
+            hi = hi.max_elem(*x);
+        }
+        // Pad by the rounding of the control points and their cast to T (relative to the
+        // local frame, whose extent is about 1).
+        let pad = T::gamma(8).to_f64() * 4.0 + f64::EPSILON * 16.0;
+        lo = lo - V3::new(pad, pad, pad);
+        hi = hi + V3::new(pad, pad, pad);
+        Patch {
+            center: center.cast(),
+            scale: T::from_f64(scale),
+            inv_scale: T::from_f64(inv),
+            a: a.cast(),
+            b: b.cast(),
+            c: c.cast(),
+            d: d.cast(),
+            e: e.cast(),
+            f: f.cast(),
+            n: n.map(|x| x.cast()),
+            lo: lo.cast(),
+            hi: hi.cast(),
+            degenerate,
+        }
+    }
+
+    /// The local-frame point at `(u, v)`.
+    #[inline(always)]
+    pub fn eval_local(&self, u: T, v: T) -> V3<T> {
+        self.a * (u * u) + self.b * (v * v) + self.c * (u * v) + self.d * u + self.e * v + self.f
+    }
+
+    /// Local-frame partial derivatives `(dP/du, dP/dv)`.
+    #[inline(always)]
+    pub fn partials_local(&self, u: T, v: T) -> (V3<T>, V3<T>) {
+        let two = T::ONE + T::ONE;
+        (self.a * (two * u) + self.c * v + self.d, self.b * (two * v) + self.c * u + self.e)
+    }
+
+    /// The world-space point at `(u, v)`.
+    pub fn eval(&self, u: T, v: T) -> V3<T> {
+        self.eval_local(u, v) * self.scale + self.center
+    }
+
+    /// World-space partial derivatives.
+    pub fn partials(&self, u: T, v: T) -> (V3<T>, V3<T>) {
+        let (pu, pv) = self.partials_local(u, v);
+        (pu * self.scale, pv * self.scale)
+    }
+
+    /// The true surface normal `dP/du × dP/dv` (unit; oriented like Embree's triangle `Ng`).
+    pub fn geometric_normal(&self, u: T, v: T) -> Option<V3<T>> {
+        let (pu, pv) = self.partials_local(u, v);
+        pu.cross(pv).normalized()
+    }
+
+    /// The Phong-interpolated normal `normalize(w n0 + u n1 + v n2)`.
+    pub fn interpolated_normal(&self, u: T, v: T) -> Option<V3<T>> {
+        let w = T::ONE - u - v;
+        (self.n[0] * w + self.n[1] * u + self.n[2] * v).normalized()
+    }
+
+    /// The shading normal of Ogaki & Tokuyoshi §4 for a ray arriving along `dir`: the
+    /// interpolated normal, except where the view vector reflected about it would fall below the
+    /// true surface, where the true normal is used. Faces the side the ray came from.
+    pub fn shading_normal(&self, u: T, v: T, dir: V3<T>) -> Option<V3<T>> {
+        let ng = self.geometric_normal(u, v)?;
+        let d = dir.normalized()?;
+        // Both normals towards the viewer.
+        let ng = if ng.dot(d) > T::ZERO { -ng } else { ng };
+        let ns = match self.interpolated_normal(u, v) {
+            Some(n) if n.dot(ng) > T::ZERO => n,
+            Some(n) => -n,
+            None => return Some(ng),
+        };
+        let two = T::ONE + T::ONE;
+        let r = d - ns * (two * d.dot(ns));
+        Some(if r.dot(ng) < T::ZERO { ng } else { ns })
+    }
+
+    /// World-space bounds.
+    pub fn bounds(&self) -> (V3<T>, V3<T>) {
+        let lo = self.lo * self.scale + self.center;
+        let hi = self.hi * self.scale + self.center;
+        // The map to world space rounds: widen by its error.
+        let err = (lo.abs().max_elem(hi.abs())) * T::gamma(3);
+        (lo - err, hi + err)
+    }
+
+    /// World-space point with a conservative bound on its absolute rounding error.
+    pub fn eval_with_error(&self, u: T, v: T) -> (V3<T>, V3<T>) {
+        let p = self.eval(u, v);
+        let (au, av) = (u.abs(), v.abs());
+        let terms = self.a.abs() * (au * au)
+            + self.b.abs() * (av * av)
+            + self.c.abs() * (au * av)
+            + self.d.abs() * au
+            + self.e.abs() * av
+            + self.f.abs();
+        let err = terms * (self.scale * T::gamma(12)) + (p.abs() + self.center.abs()) * T::gamma(2);
+        (p, err)
+    }
+}
