@@ -33,27 +33,41 @@ pub enum Command {
 pub enum Mode {
     /// Embree's native flat triangles, shaded with interpolated vertex normals.
     Flat,
+    /// Phong tessellation ray traced directly as an Embree user geometry.
+    Phong,
 }
 
 #[derive(Args, Debug)]
 pub struct RenderArgs {
-    /// The OBJ file to render (its MTL files are read too).
+    /// The OBJ file to render (its MTL files are read too), or a TOML scene file naming one.
     pub scene: PathBuf,
     /// Output image: .png (8-bit sRGB) or .exr (linear float).
     #[arg(short, long, default_value = "out.png")]
     pub output: PathBuf,
-    /// Image width in pixels.
-    #[arg(long, default_value_t = 800)]
-    pub width: u32,
-    /// Image height in pixels.
-    #[arg(long, default_value_t = 600)]
-    pub height: u32,
-    /// Samples per pixel (anti-aliasing).
-    #[arg(long, default_value_t = 1)]
-    pub spp: u32,
+    /// Image width in pixels [default: 800].
+    #[arg(long)]
+    pub width: Option<u32>,
+    /// Image height in pixels [default: 600].
+    #[arg(long)]
+    pub height: Option<u32>,
+    /// Samples per pixel, for anti-aliasing [default: 1].
+    #[arg(long)]
+    pub spp: Option<u32>,
     /// Surface mode for every object.
-    #[arg(long, value_enum, default_value_t = Mode::Flat)]
+    #[arg(long, value_enum, default_value_t = Mode::Phong)]
     pub mode: Mode,
+    /// Phong shape factor in [0, 1] (0 = flat, 1 = full Phong tessellation).
+    #[arg(long, default_value_t = 1.0)]
+    pub alpha: f32,
+    /// Render flat and Phong side by side with a difference panel (the paper's Figure 1).
+    #[arg(long)]
+    pub compare: bool,
+    /// A TOML scene file with camera, lights, per-object mode/alpha and render settings.
+    #[arg(long)]
+    pub scene_file: Option<PathBuf>,
+    /// Per-object mode, repeatable: NAME=flat or NAME=phong[:ALPHA] (overrides --mode).
+    #[arg(long = "object", value_name = "NAME=MODE")]
+    pub objects: Vec<String>,
     /// Render threads (default: all cores). The image does not depend on it.
     #[arg(long)]
     pub threads: Option<usize>,
@@ -74,9 +88,9 @@ pub struct CameraArgs {
     /// Point the camera looks at "x,y,z" (default: the centre of the scene bounds).
     #[arg(long, value_parser = parse_vec3, allow_hyphen_values = true)]
     pub look_at: Option<Vec3>,
-    /// Camera up vector "x,y,z".
-    #[arg(long, value_parser = parse_vec3, allow_hyphen_values = true, default_value = "0,1,0")]
-    pub up: Vec3,
+    /// Camera up vector "x,y,z" [default: 0,1,0].
+    #[arg(long, value_parser = parse_vec3, allow_hyphen_values = true)]
+    pub up: Option<Vec3>,
     /// Vertical field of view in degrees.
     #[arg(long)]
     pub fov: Option<f32>,

@@ -2,14 +2,17 @@
 
 mod cli;
 
+use std::path::{Path, PathBuf};
 use std::process::ExitCode;
 
-use anyhow::Context;
+use anyhow::{bail, Context};
 use clap::Parser;
+use glam::Vec3;
 
-use cli::{Cli, Command, InfoArgs, LoadArgs, Mode, RenderArgs};
+use cli::{Cli, Command, InfoArgs, Mode, RenderArgs};
 use phongrt::embree::{self, Device};
-use phongrt::render::{self, Camera, ObjectMode, ObjectSettings, RenderSettings, World};
+use phongrt::render::scene_file::{LightSection, ModeName, SceneFile};
+use phongrt::render::{self, AmbientOcclusion, Camera, Light, ObjectMode, ObjectSettings, RenderOutput, RenderSettings, World};
 use phongrt::scene::{self, LoadOptions};
 
 fn main() -> ExitCode {
@@ -31,74 +34,235 @@ fn run(cli: Cli) -> anyhow::Result<()> {
         Command::Render(args) => render_cmd(args),
         Command::Info(args) => info_cmd(args),
         Command::Accuracy(args) => {
+            anyhow::ensure!(args.rays > 0, "--rays must be at least 1");
             print!("{}", phongrt::phong::accuracy::report(args.rays, args.seed));
             Ok(())
         }
     }
 }
 
-fn load_options(args: &LoadArgs) -> anyhow::Result<LoadOptions> {
-    anyhow::ensure!(
-        (0.0..=180.0).contains(&args.crease_angle),
-        "--crease-angle {} is not in [0, 180] degrees",
-        args.crease_angle
-    );
-    Ok(LoadOptions { crease_angle_deg: args.crease_angle, ..LoadOptions::default() })
+fn load_options(crease_angle: f32) -> anyhow::Result<LoadOptions> {
+    anyhow::ensure!((0.0..=180.0).contains(&crease_angle), "--crease-angle {crease_angle} is not in [0, 180] degrees");
+    Ok(LoadOptions { crease_angle_deg: crease_angle, ..LoadOptions::default() })
 }
 
-fn load(path: &std::path::Path, args: &LoadArgs) -> anyhow::Result<scene::Scene> {
-    let s = scene::load_obj(path, &load_options(args)?)?;
+fn load(path: &Path, opts: &LoadOptions) -> anyhow::Result<scene::Scene> {
+    let s = scene::load_obj(path, opts)?;
     for w in &s.warnings {
         eprintln!("phongrt: warning: {w}");
     }
     Ok(s)
 }
 
+/// `NAME=flat` or `NAME=phong[:ALPHA]`.
+fn parse_object_override(s: &str) -> anyhow::Result<(String, ObjectMode)> {
+    let (name, mode) = s.rsplit_once('=').with_context(|| format!("--object {s:?}: expected NAME=flat or NAME=phong[:ALPHA]"))?;
+    let mode = match mode.split_once(':') {
+        None if mode == "flat" => ObjectMode::Flat,
+        None if mode == "phong" => ObjectMode::Phong { alpha: 1.0 },
+        Some(("phong", a)) => {
+            let alpha: f32 = a.parse().with_context(|| format!("--object {s:?}: alpha {a:?} is not a number"))?;
+            anyhow::ensure!((0.0..=1.0).contains(&alpha), "--object {s:?}: alpha {alpha} is not in [0, 1]");
+            ObjectMode::Phong { alpha }
+        }
+        _ => bail!("--object {s:?}: mode must be flat, phong or phong:ALPHA"),
+    };
+    Ok((name.to_string(), mode))
+}
+
 fn render_cmd(args: RenderArgs) -> anyhow::Result<()> {
-    let input = load(&args.scene, &args.load)?;
-    let device = Device::new().context("cannot start Embree")?;
-    let mode = match args.mode {
+    anyhow::ensure!((0.0..=1.0).contains(&args.alpha), "--alpha {} is not in [0, 1]", args.alpha);
+    // A .toml scene names its OBJ; an OBJ may take a scene file with --scene-file.
+    let is_toml = args.scene.extension().is_some_and(|e| e.eq_ignore_ascii_case("toml"));
+    let (obj_path, sf): (PathBuf, Option<SceneFile>) = if is_toml {
+        let sf = SceneFile::load(&args.scene)?;
+        let obj = sf.obj_path(&args.scene).with_context(|| format!("{}: obj: missing (the OBJ file to render)", args.scene.display()))?;
+        (obj, Some(sf))
+    } else {
+        let sf = args.scene_file.as_deref().map(SceneFile::load).transpose()?;
+        (args.scene.clone(), sf)
+    };
+    let crease = sf.as_ref().and_then(|s| s.crease_angle).unwrap_or(args.load.crease_angle);
+    let input = load(&obj_path, &load_options(crease)?)?;
+    let overrides: Vec<(String, ObjectMode)> = args.objects.iter().map(|s| parse_object_override(s)).collect::<anyhow::Result<_>>()?;
+    for (name, _) in &overrides {
+        anyhow::ensure!(
+            name == "*" || input.meshes.iter().any(|m| m.name == *name),
+            "--object {name:?}: no such object (objects: {})",
+            input.meshes.iter().map(|m| m.name.as_str()).collect::<Vec<_>>().join(", ")
+        );
+    }
+    let default_mode = match args.mode {
         Mode::Flat => ObjectMode::Flat,
+        Mode::Phong => ObjectMode::Phong { alpha: args.alpha },
     };
-    let world = World::from_scene(&device, &input, |_, _| ObjectSettings { mode })?;
-    let aspect = args.width as f32 / args.height.max(1) as f32;
-    let mut camera = Camera::frame_bounds(world.bounds.0, world.bounds.1, aspect);
-    if let Some(e) = args.camera.eye {
-        camera.eye = e;
-    }
-    if let Some(l) = args.camera.look_at {
-        camera.look_at = l;
-    }
-    camera.up = args.camera.up;
-    if let Some(f) = args.camera.fov {
-        camera.fov_y_deg = f;
-    }
-    let settings = RenderSettings {
-        width: args.width,
-        height: args.height,
-        spp: args.spp,
-        threads: args.threads,
-        progress: !args.quiet,
-        seed: 0,
+    let device = Device::new().context("cannot start Embree")?;
+
+    let settings_for = |forced: Option<ObjectMode>| {
+        let sf = sf.clone();
+        let overrides = overrides.clone();
+        move |_i: usize, mesh: &scene::Mesh| -> ObjectSettings {
+            if let Some(m) = forced {
+                return ObjectSettings { mode: m };
+            }
+            let mut mode = default_mode;
+            if let Some(sf) = &sf {
+                for o in sf.objects.iter().filter(|o| o.name == "*" || o.name == mesh.name) {
+                    match (o.mode, o.alpha) {
+                        (Some(ModeName::Flat), _) => mode = ObjectMode::Flat,
+                        (Some(ModeName::Phong), a) => mode = ObjectMode::Phong { alpha: a.unwrap_or(1.0) },
+                        (None, Some(a)) => mode = ObjectMode::Phong { alpha: a },
+                        (None, None) => {}
+                    }
+                }
+            }
+            for (name, m) in &overrides {
+                if name == "*" || *name == mesh.name {
+                    mode = *m;
+                }
+            }
+            ObjectSettings { mode }
+        }
     };
+
+    let width = args.width.or(sf.as_ref().and_then(|s| s.render.width)).unwrap_or(800);
+    let height = args.height.or(sf.as_ref().and_then(|s| s.render.height)).unwrap_or(600);
+    let spp = args.spp.or(sf.as_ref().and_then(|s| s.render.spp)).unwrap_or(1);
+    let settings = RenderSettings { width, height, spp, threads: args.threads, progress: !args.quiet, seed: 0 };
+
+    let build = |forced: Option<ObjectMode>| -> anyhow::Result<World> {
+        let mut world = World::from_scene(&device, &input, settings_for(forced))?;
+        if let Some(sf) = &sf {
+            apply_scene_file(&mut world, sf);
+        }
+        Ok(world)
+    };
+    let camera_for = |world: &World| {
+        let mut camera = Camera::frame_bounds(world.bounds.0, world.bounds.1, width as f32 / height as f32);
+        if let Some(sf) = &sf {
+            let c = &sf.camera;
+            if let Some(e) = c.eye {
+                camera.eye = Vec3::from(e);
+            }
+            if let Some(l) = c.look_at {
+                camera.look_at = Vec3::from(l);
+            }
+            if let Some(u) = c.up {
+                camera.up = Vec3::from(u);
+            }
+            if let Some(f) = c.fov {
+                camera.fov_y_deg = f;
+            }
+        }
+        if let Some(e) = args.camera.eye {
+            camera.eye = e;
+        }
+        if let Some(l) = args.camera.look_at {
+            camera.look_at = l;
+        }
+        if let Some(u) = args.camera.up {
+            camera.up = u;
+        }
+        if let Some(f) = args.camera.fov {
+            camera.fov_y_deg = f;
+        }
+        camera
+    };
+
+    if args.compare {
+        let alpha = match default_mode {
+            ObjectMode::Phong { alpha } => alpha,
+            ObjectMode::Flat => 1.0,
+        };
+        let flat = build(Some(ObjectMode::Flat))?;
+        let phong = build(Some(ObjectMode::Phong { alpha }))?;
+        eprintln!("phongrt: {}", phong.effects());
+        let camera = camera_for(&flat);
+        let a = render::render(&flat, &camera, &settings)?;
+        report("flat", &a);
+        let b = render::render(&phong, &camera, &settings)?;
+        report("phong", &b);
+        let ms = |o: &RenderOutput| o.elapsed.as_secs_f64() * 1e3;
+        let img = render::compare_panel(
+            &a.image,
+            &b.image,
+            &format!("flat {:.1} ms", ms(&a)),
+            &format!("phong {:.1} ms ({:.2}x)", ms(&b), ms(&b) / ms(&a).max(1e-9)),
+        );
+        img.save(&args.output)?;
+        eprintln!("phongrt: wrote {} (flat | phong | difference)", args.output.display());
+        return Ok(());
+    }
+
+    let world = build(None)?;
+    eprintln!("phongrt: {}", world.effects());
+    let camera = camera_for(&world);
     let out = render::render(&world, &camera, &settings)?;
     out.image.save(&args.output)?;
+    report(&args.output.display().to_string(), &out);
+    Ok(())
+}
+
+fn apply_scene_file(world: &mut World, sf: &SceneFile) {
+    if let Some(b) = sf.render.background {
+        world.background = Vec3::from(b);
+    }
+    if let Some(a) = sf.render.ambient {
+        world.ambient = Vec3::from(a);
+    }
+    if let Some(d) = sf.render.max_depth {
+        world.max_depth = d;
+    }
+    if !sf.lights.is_empty() {
+        world.lights = sf
+            .lights
+            .iter()
+            .map(|l| match *l {
+                LightSection::Directional { direction, radiance, shadows } => {
+                    Light::Directional { direction: Vec3::from(direction).normalize(), radiance: Vec3::from(radiance), shadows }
+                }
+                LightSection::Point { position, intensity, shadows } => {
+                    Light::Point { position: Vec3::from(position), intensity: Vec3::from(intensity), shadows }
+                }
+                LightSection::Sphere { center, radius, intensity, samples } => {
+                    Light::Sphere { center: Vec3::from(center), radius, intensity: Vec3::from(intensity), samples }
+                }
+            })
+            .collect();
+    }
+    world.ambient_occlusion = sf.ambient_occlusion.map(|a| AmbientOcclusion { samples: a.samples, distance: a.distance });
+    for o in &sf.objects {
+        for obj in world.objects.iter_mut().filter(|x| o.name == "*" || x.name == o.name) {
+            if let Some(kd) = o.kd {
+                obj.surface.kd = Vec3::from(kd);
+            }
+            if let Some(m) = o.mirror {
+                obj.surface.mirror = Vec3::from(m);
+            }
+            if let Some(t) = o.transmission {
+                obj.surface.transmission = t;
+            }
+            if let Some(n) = o.ior {
+                obj.surface.ior = n;
+            }
+        }
+    }
+}
+
+fn report(what: &str, out: &RenderOutput) {
     let secs = out.elapsed.as_secs_f64();
     eprintln!(
-        "phongrt: wrote {} ({}x{}, {} spp) in {:.3} s: {}, {:.2} Mrays/s",
-        args.output.display(),
-        args.width,
-        args.height,
-        args.spp,
+        "phongrt: {what}: {}x{} in {:.3} s: {}, {:.2} Mrays/s",
+        out.image.width,
+        out.image.height,
         secs,
         out.rays,
         out.rays.total() as f64 / secs.max(1e-9) / 1e6
     );
-    Ok(())
 }
 
 fn info_cmd(args: InfoArgs) -> anyhow::Result<()> {
-    let s = load(&args.scene, &args.load)?;
+    let s = load(&args.scene, &load_options(args.load.crease_angle)?)?;
     let device = Device::new().context("cannot start Embree")?;
     let (major, minor, patch) = device.version();
     println!("file: {}", args.scene.display());
@@ -108,22 +272,16 @@ fn info_cmd(args: InfoArgs) -> anyhow::Result<()> {
     println!("materials: {}", s.materials.len());
     println!("vertices: {}", st.vertices);
     println!("triangles: {}", st.triangles);
+    println!("normals: {} from file, {} computed", st.normals_from_file, st.normals_computed);
     println!(
-        "normals: {} from file, {} computed",
-        st.normals_from_file, st.normals_computed
-    );
-    println!(
-        "edges: {} crease, {} border, {} non-manifold",
-        st.crease_edges, st.border_edges, st.nonmanifold_edges
+        "edges: {} smooth, {} crease, {} border, {} non-manifold",
+        st.smooth_edges, st.crease_edges, st.border_edges, st.nonmanifold_edges
     );
     if st.degenerate_skipped > 0 {
         println!("skipped: {} degenerate triangles", st.degenerate_skipped);
     }
     let (lo, hi) = s.bounds();
-    println!(
-        "bounds: [{:.6}, {:.6}, {:.6}] .. [{:.6}, {:.6}, {:.6}]",
-        lo.x, lo.y, lo.z, hi.x, hi.y, hi.z
-    );
+    println!("bounds: [{:.6}, {:.6}, {:.6}] .. [{:.6}, {:.6}, {:.6}]", lo.x, lo.y, lo.z, hi.x, hi.y, hi.z);
     for m in &s.meshes {
         println!(
             "  object {:?}: {} vertices, {} triangles, normals {:?}",

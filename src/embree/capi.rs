@@ -20,6 +20,7 @@ fn set_error(msg: &str) {
 }
 
 /// Opaque to C: the mesh data a Phong user geometry points into.
+#[allow(non_camel_case_types)]
 pub struct phongrt_mesh {
     mesh: PhongMesh,
 }

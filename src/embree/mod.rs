@@ -8,3 +8,6 @@ pub use device::{header_version, set_flush_denormals, Device, EmbreeError, MAX_I
 pub use scene::{new_query_context, GeometryOptions, Hit, Ray, Scene};
 pub mod user_geometry;
 pub use user_geometry::{PrimHit, UserGeometryOptions, UserPrimitives, UserTriangles};
+pub mod capi;
+pub mod phong_geometry;
+pub use phong_geometry::{attach_phong_raw, PhongMesh, PhongMeshError, RawPhongGeometry};

@@ -4,6 +4,7 @@
 pub mod camera;
 pub mod image_out;
 pub mod scene_file;
+pub mod text;
 pub mod world;
 
 use std::io::IsTerminal;
@@ -200,4 +201,27 @@ pub fn render(world: &World, camera: &Camera, settings: &RenderSettings) -> anyh
         rays.add(counts);
     }
     Ok(RenderOutput { image, rays, elapsed })
+}
+
+/// Side by side: `left | right | difference`, each labelled (e.g. with its mode and time).
+/// The difference panel shows `|left - right|` per channel, amplified 4x.
+pub fn compare_panel(left: &Image, right: &Image, left_label: &str, right_label: &str) -> Image {
+    let (w, h) = (left.width, left.height);
+    let mut out = Image::new(3 * w, h);
+    out.blit(left, 0, 0);
+    out.blit(right, w, 0);
+    let mut diff = Image::new(w, h);
+    for y in 0..h.min(right.height) {
+        for x in 0..w.min(right.width) {
+            let d = (left.get(x, y) - right.get(x, y)).abs() * 4.0;
+            diff.set(x, y, d.min(Vec3::ONE));
+        }
+    }
+    out.blit(&diff, 2 * w, 0);
+    let scale = (h / 200).clamp(1, 4);
+    let white = Vec3::splat(0.9);
+    text::draw_text(&mut out, left_label, 6, 6, scale, white);
+    text::draw_text(&mut out, right_label, w + 6, 6, scale, white);
+    text::draw_text(&mut out, "difference x4", 2 * w + 6, 6, scale, white);
+    out
 }

@@ -6,7 +6,7 @@ use anyhow::Context;
 use glam::Vec3;
 
 use super::RayCounts;
-use crate::embree::{Device, GeometryOptions, Hit, Ray, Scene};
+use crate::embree::{Device, GeometryOptions, Hit, PhongMesh, Ray, Scene, UserGeometryOptions};
 use crate::scene as sc;
 
 /// How an object's surface is made.
@@ -14,6 +14,9 @@ use crate::scene as sc;
 pub enum ObjectMode {
     /// Embree's native triangles with interpolated shading normals.
     Flat,
+    /// Phong tessellation with shape factor `alpha`, ray traced directly (user geometry).
+    /// Crease and border edges are kept straight so the mesh stays closed.
+    Phong { alpha: f32 },
 }
 
 /// A light source. `shadows: false` lights cost no shadow rays.
@@ -128,6 +131,8 @@ pub struct Object {
     pub positions: Vec<Vec3>,
     pub indices: Vec<[u32; 3]>,
     pub surface: Surface,
+    /// The patches, for Phong objects (shared with the Embree geometry's copy).
+    pub phong: Option<PhongMesh>,
 }
 
 /// Per-object choices (from the CLI or a scene file).
@@ -169,10 +174,25 @@ impl World {
         let mut objects = Vec::with_capacity(input.meshes.len());
         for (i, mesh) in input.meshes.iter().enumerate() {
             let s = settings(i, mesh);
+            let mut phong = None;
             let id = match s.mode {
                 ObjectMode::Flat => scene
                     .attach_triangles(&mesh.positions, &mesh.indices, GeometryOptions::default())
                     .with_context(|| format!("object {:?}", mesh.name))?,
+                ObjectMode::Phong { alpha } => {
+                    let straight: Vec<[bool; 3]> = mesh
+                        .edge_kinds
+                        .iter()
+                        .map(|k| k.map(|e| e != sc::EdgeKind::Smooth))
+                        .collect();
+                    let straight = (straight.len() == mesh.indices.len()).then_some(straight);
+                    let pm = PhongMesh::with_straight_edges(&mesh.positions, &mesh.normals, &mesh.indices, alpha, straight.as_deref())
+                        .with_context(|| format!("object {:?}", mesh.name))?;
+                    phong = Some(pm.clone());
+                    scene
+                        .attach_phong(pm, UserGeometryOptions::default())
+                        .with_context(|| format!("object {:?}", mesh.name))?
+                }
             };
             // geomIDs are handed out densely from 0 in attach order on a fresh scene.
             anyhow::ensure!(id as usize == objects.len(), "unexpected geomID {id}");
@@ -188,6 +208,7 @@ impl World {
                 positions: mesh.positions.clone(),
                 indices: mesh.indices.clone(),
                 surface,
+                phong,
             });
         }
         scene.commit()?;
@@ -445,6 +466,15 @@ impl Object {
                     (p, gamma(7) * (ray.org.abs() + (hit.t * ray.dir).abs()))
                 });
                 (p, err, self.interpolated_normal(hit.prim_id, hit.u, hit.v).unwrap_or(ng_raw))
+            }
+            ObjectMode::Phong { .. } => {
+                let pm = self.phong.as_ref();
+                let (p, err) = pm.and_then(|m| m.surface_point(hit.prim_id, hit.u, hit.v)).unwrap_or_else(|| {
+                    let p = ray.at(hit.t);
+                    (p, gamma(7) * (ray.org.abs() + (hit.t * ray.dir).abs()))
+                });
+                let n = pm.and_then(|m| m.shading_normal(hit.prim_id, hit.u, hit.v, ray.dir)).unwrap_or(ng_raw);
+                (p, err, n)
             }
         };
         let entering = ng_raw.dot(ray.dir) < 0.0;

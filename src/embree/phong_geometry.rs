@@ -1,0 +1,193 @@
+//! Phong-tessellated meshes as Embree user geometry: one primitive per triangle, bounds and
+//! intersection by [`crate::phong`], everything else (BVH, traversal, instancing, filters,
+//! masks, packets) by Embree.
+
+use glam::{DVec3, Vec3};
+
+use super::device::EmbreeError;
+use super::scene::Scene;
+use super::sys;
+use super::user_geometry::{new_user_geometry, PrimHit, UserGeometryOptions, UserPrimitives};
+use crate::phong::{intersect, Method, Patch, V3};
+
+/// Why a Phong mesh was refused.
+#[derive(Debug, Clone, thiserror::Error)]
+pub enum PhongMeshError {
+    #[error("{0} normals for {1} positions (need one per vertex)")]
+    NormalCount(usize, usize),
+    #[error("triangle {tri} has vertex index {index}, but there are {count} vertices")]
+    Index { tri: usize, index: u32, count: usize },
+    #[error("alpha {0} is not in [0, 1]")]
+    Alpha(f32),
+    #[error("vertex {0} has a non-finite position or normal")]
+    NonFinite(usize),
+    #[error("{0} per-triangle straight-edge flags for {1} triangles")]
+    EdgeFlagCount(usize, usize),
+}
+
+/// A Phong mesh: patches precomputed per triangle, owned so it outlives the geometry.
+#[derive(Clone, Debug)]
+pub struct PhongMesh {
+    pub patches: Vec<Patch<f32>>,
+    /// World-space bounds per patch (precomputed: the bounds callback only copies).
+    bounds: Vec<(Vec3, Vec3)>,
+    /// Patches that are never hit (zero area or zero normal), counted for reporting.
+    pub degenerate: usize,
+    pub method: Method,
+}
+
+impl PhongMesh {
+    /// Build from vertex positions and normals (one per vertex), triangles and alpha.
+    pub fn new(positions: Vec<Vec3>, normals: Vec<Vec3>, indices: Vec<[u32; 3]>, alpha: f32) -> Result<Self, PhongMeshError> {
+        Self::with_straight_edges(&positions, &normals, &indices, alpha, None)
+    }
+
+    /// As [`PhongMesh::new`], keeping edge `k` of triangle `t` straight where `straight[t][k]`
+    /// (for creases: both patches beside the edge then share the straight edge, no crack).
+    pub fn with_straight_edges(
+        positions: &[Vec3],
+        normals: &[Vec3],
+        indices: &[[u32; 3]],
+        alpha: f32,
+        straight: Option<&[[bool; 3]]>,
+    ) -> Result<Self, PhongMeshError> {
+        if normals.len() != positions.len() {
+            return Err(PhongMeshError::NormalCount(normals.len(), positions.len()));
+        }
+        if !(0.0..=1.0).contains(&alpha) {
+            return Err(PhongMeshError::Alpha(alpha));
+        }
+        if let Some(s) = straight {
+            if s.len() != indices.len() {
+                return Err(PhongMeshError::EdgeFlagCount(s.len(), indices.len()));
+            }
+        }
+        if let Some(i) = (0..positions.len()).find(|&i| !positions[i].is_finite() || !normals[i].is_finite()) {
+            return Err(PhongMeshError::NonFinite(i));
+        }
+        let mut patches = Vec::with_capacity(indices.len());
+        let mut bounds = Vec::with_capacity(indices.len());
+        let mut degenerate = 0;
+        for (t, tri) in indices.iter().enumerate() {
+            if let Some(&index) = tri.iter().find(|&&i| i as usize >= positions.len()) {
+                return Err(PhongMeshError::Index { tri: t, index, count: positions.len() });
+            }
+            let p = tri.map(|i| positions[i as usize].as_dvec3());
+            let n = tri.map(|i| normals[i as usize].as_dvec3());
+            let s = straight.map_or([false; 3], |s| s[t]);
+            let patch: Patch<f32> = Patch::with_straight_edges(p, n, alpha as f64, s);
+            if patch.degenerate {
+                degenerate += 1;
+            }
+            let (lo, hi) = patch.bounds();
+            bounds.push((Vec3::from(lo), Vec3::from(hi)));
+            patches.push(patch);
+        }
+        Ok(PhongMesh { patches, bounds, degenerate, method: Method::AnalyticPolished })
+    }
+
+    /// The true surface point at `(u, v)` of patch `prim`, with a bound on its rounding error.
+    pub fn surface_point(&self, prim: u32, u: f32, v: f32) -> Option<(Vec3, Vec3)> {
+        let p = self.patches.get(prim as usize)?;
+        if !(u.is_finite() && v.is_finite()) {
+            return None;
+        }
+        let (pt, err) = p.eval_with_error(u, v);
+        Some((pt.into(), err.into()))
+    }
+
+    /// The shading normal (Ogaki & Tokuyoshi §4) at `(u, v)` for a ray along `dir`.
+    pub fn shading_normal(&self, prim: u32, u: f32, v: f32, dir: Vec3) -> Option<Vec3> {
+        let p = self.patches.get(prim as usize)?;
+        p.shading_normal(u, v, V3::from(dir)).map(Vec3::from)
+    }
+
+    /// The true surface normal `dP/du × dP/dv` (unit) at `(u, v)`.
+    pub fn geometric_normal(&self, prim: u32, u: f32, v: f32) -> Option<Vec3> {
+        self.patches.get(prim as usize)?.geometric_normal(u, v).map(Vec3::from)
+    }
+
+    /// Bytes held by this mesh.
+    pub fn memory_bytes(&self) -> usize {
+        self.patches.len() * (std::mem::size_of::<Patch<f32>>() + std::mem::size_of::<(Vec3, Vec3)>())
+    }
+}
+
+impl UserPrimitives for PhongMesh {
+    fn count(&self) -> u32 {
+        self.patches.len() as u32
+    }
+
+    fn bounds(&self, prim: u32) -> Option<(Vec3, Vec3)> {
+        let p = self.patches.get(prim as usize)?;
+        if p.degenerate {
+            return None; // excluded from the BVH (and counted in `degenerate`)
+        }
+        self.bounds.get(prim as usize).copied()
+    }
+
+    #[inline]
+    fn intersect(&self, prim: u32, org: Vec3, dir: Vec3, tnear: f32, tfar: f32) -> Option<PrimHit> {
+        let p = self.patches.get(prim as usize)?;
+        let h = intersect(p, V3::from(org), V3::from(dir), tnear, tfar, self.method)?;
+        let (pu, pv) = p.partials_local(h.u, h.v);
+        let ng = pu.cross(pv);
+        Some(PrimHit { t: h.t, u: h.u, v: h.v, ng: Vec3::from(ng) })
+    }
+}
+
+impl Scene {
+    /// Attach a Phong mesh as one user geometry; the scene owns it. Returns the geomID.
+    pub fn attach_phong(&mut self, mesh: PhongMesh, options: UserGeometryOptions) -> Result<u32, EmbreeError> {
+        self.attach_user(mesh, options)
+    }
+}
+
+/// A Phong mesh attached to a raw `RTCScene` the caller manages: keep this handle alive until
+/// every scene holding the geometry is released, then drop it.
+pub struct RawPhongGeometry {
+    mesh: Box<PhongMesh>,
+    pub geom_id: u32,
+}
+
+impl RawPhongGeometry {
+    /// The mesh (for shading helpers).
+    pub fn mesh(&self) -> &PhongMesh {
+        &self.mesh
+    }
+}
+
+/// Attach `mesh` to a raw Embree scene created by the caller's own Embree code.
+///
+/// # Safety
+/// `scene` must be a live `RTCScene`, and the returned handle must outlive every use of the
+/// scene (and of any scene instancing it) in ray queries.
+pub unsafe fn attach_phong_raw(scene: sys::RTCScene, mesh: PhongMesh, options: UserGeometryOptions) -> Result<RawPhongGeometry, EmbreeError> {
+    let mesh = Box::new(mesh);
+    // SAFETY: the caller guarantees `scene` is live; rtcGetSceneDevice returns its device with
+    // a new reference, released below. The mesh box lives in the returned handle, which the
+    // caller keeps alive while the scene is traced (this function's contract).
+    unsafe {
+        let device = sys::rtcGetSceneDevice(scene);
+        let geom = new_user_geometry(device, &*mesh as *const PhongMesh, options);
+        if geom.is_null() {
+            sys::rtcReleaseDevice(device);
+            return Err(EmbreeError::Null("user geometry"));
+        }
+        let geom_id = sys::rtcAttachGeometry(scene, geom);
+        sys::rtcReleaseGeometry(geom);
+        let err = sys::rtcGetDeviceError(device);
+        sys::rtcReleaseDevice(device);
+        if err != sys::RTCError::RTC_ERROR_NONE {
+            return Err(EmbreeError::Device { kind: super::device::error_kind(err), message: "attaching a Phong mesh".into() });
+        }
+        Ok(RawPhongGeometry { mesh, geom_id })
+    }
+}
+
+/// Evaluate the Phong surface of triangle `(p, n)` at `(u, v)` in f64 (a convenience for users).
+pub fn phong_point(p: [Vec3; 3], n: [Vec3; 3], alpha: f32, u: f64, v: f64) -> Vec3 {
+    let patch: Patch<f64> = Patch::new(p.map(|x| x.as_dvec3()), n.map(|x| x.as_dvec3()), alpha as f64);
+    let q: DVec3 = patch.eval(u, v).into();
+    q.as_vec3()
+}
