@@ -304,7 +304,7 @@ impl World {
         match *light {
             Light::Directional { direction, radiance, shadows } => {
                 let l = direction.normalize_or_zero();
-                let cos = sp.n.dot(l);
+                let cos = sp.light_factor(l);
                 if cos <= 0.0 {
                     return Vec3::ZERO;
                 }
@@ -317,7 +317,7 @@ impl World {
                 let to = position - sp.p;
                 let d2 = to.length_squared();
                 let l = to / d2.sqrt();
-                let cos = sp.n.dot(l);
+                let cos = sp.light_factor(l);
                 if cos <= 0.0 || d2 == 0.0 {
                     return Vec3::ZERO;
                 }
@@ -338,7 +338,7 @@ impl World {
                     let q = center + radius * Vec3::new(r * phi.cos(), r * phi.sin(), z);
                     let to = q - sp.p;
                     let d2 = to.length_squared();
-                    let cos = sp.n.dot(to) / d2.sqrt();
+                    let cos = sp.light_factor(to / d2.sqrt());
                     if cos <= 0.0 || d2 == 0.0 {
                         continue;
                     }
@@ -390,6 +390,39 @@ pub struct SurfacePoint {
     pub n: Vec3,
     /// Whether the ray arrived from the front (the side `dp/du x dp/dv` points to).
     pub entering: bool,
+    /// Apply the shadow-terminator term (Phong surfaces; flat ones keep the classic artefact).
+    pub smooth_terminator: bool,
+}
+
+impl SurfacePoint {
+    /// The light a direction `l` (unit) brings in, as a factor of `n·l`. On Phong surfaces the
+    /// shading normal `n` and the true normal `ng` differ, and where `n·l > 0` but the true
+    /// surface faces away, a shadow ray would be blocked by the surface itself: a jagged hard
+    /// terminator. So: 0 where the true surface faces away (no shadow ray needed); in the band
+    /// `n·l < 2|n - ng|` (the only place the two can disagree in sign) Chiang et al. 2019's smooth
+    /// shadowing term `G' = -G³ + G² + G`, `G = min(1, (ng·l) / ((n·l)(ng·n)))`, blended back to 1
+    /// across the band; elsewhere plain `n·l`. Flat surfaces keep the classic artefact.
+    pub fn light_factor(&self, l: Vec3) -> f32 {
+        let cos_s = self.n.dot(l);
+        if cos_s <= 0.0 {
+            return 0.0;
+        }
+        if !self.smooth_terminator {
+            return cos_s;
+        }
+        let band = 2.0 * (self.n - self.ng).length();
+        if cos_s >= band {
+            return cos_s;
+        }
+        let cos_g = self.ng.dot(l);
+        if cos_g <= 0.0 {
+            return 0.0;
+        }
+        let g = (cos_g / (cos_s * self.ng.dot(self.n).max(f32::MIN_POSITIVE))).min(1.0);
+        let gp = -g * g * g + g * g + g;
+        let t = cos_s / band;
+        cos_s * (gp + (1.0 - gp) * t)
+    }
 }
 
 /// `gamma(n) = n u / (1 - n u)` with `u` the f32 unit roundoff: the bound on the relative
@@ -481,7 +514,8 @@ impl Object {
         let ng = if entering { ng_raw } else { -ng_raw };
         // The shading normal on the same side as the geometric one.
         let n = if n_shade.dot(ng) < 0.0 { -n_shade } else { n_shade };
-        SurfacePoint { p, p_error, ng, n, entering }
+        let smooth_terminator = matches!(self.mode, ObjectMode::Phong { .. });
+        SurfacePoint { p, p_error, ng, n, entering, smooth_terminator }
     }
 
     /// `(1-u-v) p0 + u p1 + v p2` with its rounding error bound (pbrt-v4's barycentric bound).
