@@ -228,7 +228,18 @@ fn line_conic<T: Real>(l: [T; 3], k: &Conic<T>) -> ([(T, T); 2], usize) {
     let s2 = a * rx * rx + b * ry * ry + c * rx * ry;
     let s1 = two * a * qx * rx + two * b * qy * ry + c * (qx * ry + qy * rx) + d * rx + e * ry;
     let s0 = k.at(qx, qy);
-    let (r, n) = solve_quadratic(s2, s1, s0);
+    let (mut r, mut n) = solve_quadratic(s2, s1, s0);
+    if n == 0 && s2 != z {
+        // Near tangency the discriminant's sign is lost in the rounding of everything upstream
+        // (pencil root, line factors): offer the parabola's vertex when the discriminant is
+        // within sqrt(gamma(8)) of the terms' size; the caller's residual gate and Newton polish
+        // keep it only if it is a real (double) root.
+        let disc = s1 * s1 - T::from_f64(4.0) * s2 * s0;
+        if disc > -T::gamma(8).sqrt() * (s1 * s1 + (T::from_f64(4.0) * s2 * s0).abs()) {
+            r[0] = -s1 / (s2 + s2);
+            n = 1;
+        }
+    }
     let mut out = [(z, z); 2];
     for i in 0..n {
         out[i] = (qx + r[i] * rx, qy + r[i] * ry);
@@ -389,6 +400,7 @@ fn analytic_local<T: Real>(p: &Patch<T>, o: V3<T>, d: V3<T>, tmin: T, tmax: T, p
                 if !(res <= size_tol) {
                     continue;
                 }
+                let unpolished = (u, v, t);
                 if polish {
                     for _ in 0..2 {
                         match newton_step(p, o, d, u, v, t) {
@@ -399,6 +411,17 @@ fn analytic_local<T: Real>(p: &Patch<T>, o: V3<T>, d: V3<T>, tmin: T, tmax: T, p
                             }
                             None => break,
                         }
+                    }
+                    // A polished point must lie on the ray to rounding (relative to the terms).
+                    let scale = T::ONE + o.max_abs() + (d * t).max_abs();
+                    let res = (p.eval_local(u, v) - o - d * t).max_abs();
+                    if !(res <= T::gamma(1024) * scale) {
+                        continue;
+                    }
+                    // Two close roots (grazing): if the step jumped out of the domain, keep the
+                    // unpolished root when that one is inside.
+                    if !inside(u, v) && inside(unpolished.0, unpolished.1) {
+                        (u, v, t) = unpolished;
                     }
                 }
                 found_any = true;

@@ -70,7 +70,10 @@ impl<T: Real> Patch<T> {
         // A zero normal cannot define a tangent plane: such a patch is degenerate.
         let degenerate = !finite || !(area > 0.0) || zero_normal;
         let n = nn.map(|x| x.unwrap_or(V3::zero()));
-        let center = (p[0] + p[1] + p[2]) * (1.0 / 3.0);
+        // The centre is rounded to T first, so the local coordinates (computed exactly enough in
+        // f64 relative to it) describe the same surface as the T-precision frame does.
+        let center: V3<f64> = ((p[0] + p[1] + p[2]) * (1.0 / 3.0)).cast::<T>().to_f64();
+        let center = if center.is_finite() { center } else { V3::zero() };
         let scale = p.iter().map(|q| (*q - center).length()).fold(0.0, f64::max);
         let (scale, inv) = if degenerate || !(scale > 0.0) { (1.0, 1.0) } else { (scale, 1.0 / scale) };
         let q = control_points(p, n, alpha, straight).map(|c| (c - center) * inv);
