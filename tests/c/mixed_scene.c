@@ -51,13 +51,13 @@ int main(void) {
   CHECK(child_geom != RTC_INVALID_GEOMETRY_ID, "attach failed: %s", phongrt_last_error());
   rtcCommitScene(child);
 
-  /* Top scene: a native ground quad (2 triangles at y = -2), the Phong octahedron at the origin,
+  /* Top scene: a native ground quad (2 triangles at y = -6, below every ray origin), the Phong octahedron at the origin,
      and an instance of the child translated to x = 5. */
   RTCScene scene = rtcNewScene(device);
   RTCGeometry ground = rtcNewGeometry(device, RTC_GEOMETRY_TYPE_TRIANGLE);
   float* gv = (float*)rtcSetNewGeometryBuffer(ground, RTC_BUFFER_TYPE_VERTEX, 0, RTC_FORMAT_FLOAT3, 3 * sizeof(float), 4);
   unsigned* gi = (unsigned*)rtcSetNewGeometryBuffer(ground, RTC_BUFFER_TYPE_INDEX, 0, RTC_FORMAT_UINT3, 3 * sizeof(unsigned), 2);
-  const float g[12] = {-20, -2, -20, 20, -2, -20, 20, -2, 20, -20, -2, 20};
+  const float g[12] = {-20, -6, -20, 20, -6, -20, 20, -6, 20, -20, -6, 20};
   memcpy(gv, g, sizeof g);
   const unsigned gidx[6] = {0, 2, 1, 0, 3, 2};
   memcpy(gi, gidx, sizeof gidx);
@@ -135,7 +135,7 @@ int main(void) {
     struct RTCRayHit rh;
     ray_init(&rh, 10.0f, 4.0f, 3.0f, 0.0f, -1.0f, 0.0f);
     rtcIntersect1(scene, &rh, NULL);
-    CHECK(rh.hit.geomID == ground_id && fabsf(rh.ray.tfar - 6.0f) < 1e-5f, "ground: geom %u t %f", rh.hit.geomID, rh.ray.tfar);
+    CHECK(rh.hit.geomID == ground_id && fabsf(rh.ray.tfar - 10.0f) < 1e-5f, "ground: geom %u t %f", rh.hit.geomID, rh.ray.tfar);
     struct RTCRay ray = rh.ray;
     ray.org_x = 0.0f; ray.org_z = 0.0f; ray.tfar = 2.0f; /* from y = 4 down to y = 2: nothing */
     rtcOccluded1(scene, &ray, NULL);

@@ -1,0 +1,60 @@
+//! The C API: tests/c/mixed_scene.c, compiled with the system C compiler against
+//! include/phongrt.h and libphongrt.so, builds a scene mixing native triangles, a Phong mesh and
+//! an instance of it, traces rays and checks the results; then runs again under valgrind
+//! (memcheck, leak check) when valgrind is installed.
+//!
+//! The shared library must be built first (`cargo build --release --lib`; scripts/test.sh does).
+use std::path::PathBuf;
+use std::process::Command;
+
+fn target_dir() -> PathBuf {
+    // target/<profile>/deps/c_api-HASH -> target/<profile>
+    let exe = std::env::current_exe().unwrap();
+    exe.parent().and_then(|p| p.parent()).unwrap().to_path_buf()
+}
+
+#[test]
+fn c_program_mixes_triangles_phong_and_instances() {
+    let root = PathBuf::from(env!("CARGO_MANIFEST_DIR"));
+    let lib_dir = target_dir();
+    let so = lib_dir.join("libphongrt.so");
+    assert!(so.exists(), "{} is missing: build it with `cargo build --release --lib` (scripts/test.sh does)", so.display());
+    let cc = std::env::var("CC").unwrap_or_else(|_| "cc".into());
+    let out = tempfile::tempdir().unwrap();
+    let exe = out.path().join("mixed_scene");
+    let emb_inc = env!("PHONGRT_EMBREE_INCLUDE_DIR");
+    let emb_lib = env!("PHONGRT_EMBREE_LIB_DIR");
+    let mut c = Command::new(&cc);
+    c.args(["-std=c99", "-O1", "-g", "-Wall", "-Wextra", "-Werror", "-o"])
+        .arg(&exe)
+        .arg(root.join("tests/c/mixed_scene.c"))
+        .arg(format!("-I{}", root.join("include").display()))
+        .arg(format!("-I{emb_inc}"))
+        .arg(format!("-L{}", lib_dir.display()))
+        .arg(format!("-Wl,-rpath,{}", lib_dir.display()))
+        .arg("-lphongrt");
+    if !emb_lib.is_empty() {
+        c.arg(format!("-L{emb_lib}")).arg(format!("-Wl,-rpath,{emb_lib}"));
+    }
+    c.args(["-lembree4", "-lm"]);
+    let st = c.output().expect("cannot run the C compiler");
+    assert!(st.status.success(), "C compile failed:\n{}", String::from_utf8_lossy(&st.stderr));
+
+    let run = Command::new(&exe).output().unwrap();
+    let stdout = String::from_utf8_lossy(&run.stdout);
+    assert!(run.status.success(), "C program failed:\n{stdout}\n{}", String::from_utf8_lossy(&run.stderr));
+    assert!(stdout.starts_with("ok "), "{stdout}");
+
+    if Command::new("valgrind").arg("--version").output().is_err() {
+        println!("skipped valgrind: not installed");
+        return;
+    }
+    let vg = Command::new("valgrind")
+        .args(["--leak-check=full", "--errors-for-leak-kinds=definite", "--error-exitcode=9", "--quiet"])
+        .arg(&exe)
+        .output()
+        .unwrap();
+    let err = String::from_utf8_lossy(&vg.stderr);
+    assert!(vg.status.success(), "valgrind reports errors:\n{err}");
+    assert!(String::from_utf8_lossy(&vg.stdout).starts_with("ok "));
+}
