@@ -3,7 +3,7 @@
 //! `cargo bench --bench primary_rays` prints ns per ray; Mrays/s = 1000 / ns.
 use criterion::{criterion_group, criterion_main, Criterion, Throughput};
 use glam::Vec3;
-use phongrt::embree::{set_flush_denormals, Device, GeometryOptions, Ray, Scene, UserGeometryOptions, UserTriangles};
+use phongrt::embree::{set_flush_denormals, Device, GeometryOptions, PhongMesh, Ray, Scene, UserGeometryOptions, UserTriangles};
 
 /// A UV sphere with `seg` segments and `rings` rings (unit radius, exact normals).
 fn uv_sphere(seg: u32, rings: u32) -> (Vec<Vec3>, Vec<Vec3>, Vec<[u32; 3]>) {
@@ -46,7 +46,7 @@ fn camera_rays(w: u32, h: u32) -> Vec<Ray> {
 fn bench(c: &mut Criterion) {
     set_flush_denormals();
     let device = Device::with_config("threads=1").unwrap();
-    let (p, _n, idx) = uv_sphere(12, 6);
+    let (p, n, idx) = uv_sphere(12, 6);
     let rays = camera_rays(128, 128);
     let mut native = Scene::new(&device).unwrap();
     native.attach_triangles(&p, &idx, GeometryOptions::default()).unwrap();
@@ -55,9 +55,13 @@ fn bench(c: &mut Criterion) {
     user.attach_user(UserTriangles { positions: p.clone(), indices: idx.clone() }, UserGeometryOptions::default()).unwrap();
     user.commit().unwrap();
 
+    let mut phong = Scene::new(&device).unwrap();
+    phong.attach_phong(PhongMesh::new(p.clone(), n.clone(), idx.clone(), 1.0).unwrap(), UserGeometryOptions::default()).unwrap();
+    phong.commit().unwrap();
+
     let mut g = c.benchmark_group("primary_rays_sphere_12x6");
     g.throughput(Throughput::Elements(rays.len() as u64));
-    for (name, scene) in [("native_triangles", &native), ("user_triangles", &user)] {
+    for (name, scene) in [("native_triangles", &native), ("user_triangles", &user), ("phong_direct", &phong)] {
         g.bench_function(name, |b| {
             b.iter(|| rays.iter().filter(|r| scene.intersect1(**r).is_some()).count())
         });

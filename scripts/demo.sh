@@ -5,4 +5,4 @@ set -euo pipefail
 cd "$(dirname "$0")/.."
 scripts/setup-embree.sh >/dev/null
 cargo build --release --quiet
-exec target/release/phongrt render scenes/sphere_lowpoly.obj -o "${1:-sphere.png}" --spp 4
+exec target/release/phongrt render scenes/sphere_lowpoly.obj --compare --width 360 --height 360 --spp 4 -o "${1:-sphere.png}"
