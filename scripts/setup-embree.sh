@@ -27,8 +27,13 @@ as_root() { if [ "$(id -u)" = 0 ]; then "$@"; else sudo "$@"; fi; }
 # 1. libclang for bindgen (and a C compiler for the C API test).
 have_libclang() {
   [ -n "${LIBCLANG_PATH:-}" ] && return 0
-  ls /usr/lib/llvm-*/lib/libclang.so /usr/lib/llvm-*/lib/libclang-*.so* \
-     /usr/lib/x86_64-linux-gnu/libclang-*.so* /usr/lib/x86_64-linux-gnu/libclang.so* >/dev/null 2>&1
+  # libclang itself (libclang-cpp, present on a fresh Debian 12, is not what bindgen loads).
+  local f
+  for f in /usr/lib/llvm-*/lib/libclang.so* /usr/lib/llvm-*/lib/libclang-[0-9]*.so* \
+           /usr/lib/*-linux-gnu/libclang.so* /usr/lib/*-linux-gnu/libclang-[0-9]*.so*; do
+    [ -e "$f" ] && return 0
+  done
+  return 1
 }
 if ! have_libclang; then
   command -v apt-get >/dev/null || die "libclang not found and no apt-get: install libclang (for bindgen) and set LIBCLANG_PATH"
