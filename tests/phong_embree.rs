@@ -79,3 +79,87 @@ fn alpha_zero_matches_embree_triangles() {
     assert!(n > 100_000);
     assert_eq!(mismatch, 0, "{mismatch} hit/miss disagreements");
 }
+
+fn load_scene_mesh(rel: &str) -> Mesh {
+    let p = std::path::Path::new(env!("CARGO_MANIFEST_DIR")).join(rel);
+    let s = phongrt::scene::load_obj(&p, &phongrt::scene::LoadOptions::default()).unwrap();
+    s.meshes.into_iter().next().unwrap()
+}
+
+#[test]
+fn alpha_zero_matches_embree_triangles_on_a_real_mesh_for_a_million_rays() {
+    let device = Device::new().unwrap();
+    let mesh = load_scene_mesh("scenes/wuson/WusonOBJ.obj");
+    let phong = phong_scene(&device, &mesh, 0.0, false);
+    let mut tri = Scene::new(&device).unwrap();
+    tri.attach_triangles(&mesh.positions, &mesh.indices, GeometryOptions::default()).unwrap();
+    tri.commit().unwrap();
+    let (lo, hi) = mesh.positions.iter().fold((Vec3::splat(f32::MAX), Vec3::splat(f32::MIN)), |(a, b), p| (a.min(*p), b.max(*p)));
+    let (c, r) = ((lo + hi) * 0.5, (hi - lo).length());
+    let mut rng = SplitMix(21);
+    let (mut hits, mut disagree, mut near_edge) = (0, 0, 0);
+    for _ in 0..1_000_000 {
+        let o = c + (rng.unit() * r as f64).as_vec3();
+        let target = c + (rng.unit() * 0.4 * r as f64).as_vec3();
+        let ray = Ray::new(o, target - o);
+        match (tri.intersect1(ray), phong.intersect1(ray)) {
+            (Some(a), Some(b)) => {
+                hits += 1;
+                let cos = ray.dir.normalize().dot(a.ng.normalize()).abs();
+                // t within 1e-5 relative; for grazing hits (cos < 0.1) the t error grows as 1/cos,
+                // so there: the two hit points within 1e-6 of the model size along the normal.
+                let ok = if cos >= 0.1 {
+                    (a.t - b.t).abs() <= 1e-5 * a.t
+                } else {
+                    (a.t - b.t).abs() * ray.dir.length() * cos <= 1e-6 * r
+                };
+                assert!(ok || a.prim_id != b.prim_id, "t {} vs {} prims {} {} cos {cos}", a.t, b.t, a.prim_id, b.prim_id);
+                if a.prim_id != b.prim_id {
+                    let edge = |u: f32, v: f32| u.min(v).min(1.0 - u - v) < 1e-4;
+                    assert!(edge(a.u, a.v) && edge(b.u, b.v), "prim {} vs {} away from an edge", a.prim_id, b.prim_id);
+                    near_edge += 1;
+                }
+            }
+            (None, None) => {}
+            (a, b) => {
+                // Allowed only within an epsilon of an edge (the two tests round differently there).
+                let h = a.or(b).unwrap();
+                assert!(h.u.min(h.v).min(1.0 - h.u - h.v) < 1e-4, "hit/miss disagreement away from edges: {a:?} {b:?}");
+                disagree += 1;
+            }
+        }
+    }
+    println!("wuson alpha=0: {hits} hits, {near_edge} different prims on edges, {disagree} edge hit/miss disagreements");
+    assert!(hits > 150_000, "{hits}");
+    assert!(disagree < 100, "{disagree}");
+}
+
+#[test]
+fn embree_path_matches_the_pure_rust_intersector() {
+    use phongrt::phong::{intersect, Method, V3};
+    let device = Device::new().unwrap();
+    let mesh = uv_sphere(12, 6, 1.0);
+    let scene = phong_scene(&device, &mesh, 1.0, true);
+    let pm = PhongMesh::with_straight_edges(&mesh.positions, &mesh.normals, &mesh.indices, 1.0, None).unwrap();
+    let mut rng = SplitMix(33);
+    let mut hits = 0;
+    for _ in 0..20_000 {
+        let o = (rng.unit() * 3.0).as_vec3();
+        let d = ((rng.unit() * 0.8).as_vec3() - o).normalize();
+        let brute = pm
+            .patches
+            .iter()
+            .enumerate()
+            .filter_map(|(i, p)| intersect(p, V3::from(o), V3::from(d), 0.0, f32::INFINITY, Method::AnalyticPolished).map(|h| (i as u32, h)))
+            .min_by(|a, b| a.1.t.partial_cmp(&b.1.t).unwrap());
+        let e = scene.intersect1(Ray::new(o, d));
+        assert_eq!(brute.is_some(), e.is_some());
+        if let (Some((prim, h)), Some(e)) = (brute, e) {
+            hits += 1;
+            assert_eq!(prim, e.prim_id);
+            assert_eq!(h.t, e.t);
+            assert_eq!((h.u, h.v), (e.u, e.v));
+        }
+    }
+    assert!(hits > 10_000);
+}
