@@ -5,31 +5,6 @@ use criterion::{criterion_group, criterion_main, Criterion, Throughput};
 use glam::Vec3;
 use phongrt::embree::{set_flush_denormals, Device, GeometryOptions, PhongMesh, Ray, Scene, UserGeometryOptions, UserTriangles};
 
-/// A UV sphere with `seg` segments and `rings` rings (unit radius, exact normals).
-fn uv_sphere(seg: u32, rings: u32) -> (Vec<Vec3>, Vec<Vec3>, Vec<[u32; 3]>) {
-    let mut p = vec![Vec3::Y];
-    for r in 1..rings {
-        let th = std::f32::consts::PI * r as f32 / rings as f32;
-        for s in 0..seg {
-            let ph = std::f32::consts::TAU * s as f32 / seg as f32;
-            p.push(Vec3::new(th.sin() * ph.cos(), th.cos(), -th.sin() * ph.sin()));
-        }
-    }
-    p.push(-Vec3::Y);
-    let ring = |r: u32, s: u32| 1 + (r - 1) * seg + s % seg;
-    let last = p.len() as u32 - 1;
-    let mut idx = Vec::new();
-    for s in 0..seg {
-        idx.push([0, ring(1, s), ring(1, s + 1)]);
-        for r in 1..rings - 1 {
-            idx.push([ring(r, s), ring(r + 1, s), ring(r + 1, s + 1)]);
-            idx.push([ring(r, s), ring(r + 1, s + 1), ring(r, s + 1)]);
-        }
-        idx.push([ring(rings - 1, s), last, ring(rings - 1, s + 1)]);
-    }
-    (p.clone(), p, idx)
-}
-
 fn camera_rays(w: u32, h: u32) -> Vec<Ray> {
     let eye = Vec3::new(0.0, 0.0, 3.0);
     let mut v = Vec::with_capacity((w * h) as usize);
@@ -46,7 +21,8 @@ fn camera_rays(w: u32, h: u32) -> Vec<Ray> {
 fn bench(c: &mut Criterion) {
     set_flush_denormals();
     let device = Device::with_config("threads=1").unwrap();
-    let (p, n, idx) = uv_sphere(12, 6);
+    let m = phongrt::scene::uv_sphere(12, 6, 1.0);
+    let (p, n, idx) = (m.positions, m.normals, m.indices);
     let rays = camera_rays(128, 128);
     let mut native = Scene::new(&device).unwrap();
     native.attach_triangles(&p, &idx, GeometryOptions::default()).unwrap();

@@ -7,6 +7,7 @@ use glam::Vec3;
 
 use super::RayCounts;
 use crate::embree::{Device, GeometryOptions, Hit, PhongMesh, Ray, Scene, UserGeometryOptions};
+use crate::phong::accuracy::SplitMix;
 use crate::scene as sc;
 
 /// How an object's surface is made.
@@ -530,27 +531,19 @@ impl Object {
     }
 }
 
-/// A small deterministic generator (SplitMix64), seeded per pixel and sample so images do not
-/// depend on thread count or scheduling.
+/// A small deterministic generator (SplitMix64, shared with the accuracy report), seeded per
+/// pixel and sample so images do not depend on thread count or scheduling.
 #[derive(Clone, Debug)]
-pub struct Rng(u64);
+pub struct Rng(SplitMix);
 
 impl Rng {
     pub fn new(seed: u64) -> Self {
-        Rng(seed)
-    }
-
-    pub fn next_u64(&mut self) -> u64 {
-        self.0 = self.0.wrapping_add(0x9E37_79B9_7F4A_7C15);
-        let mut z = self.0;
-        z = (z ^ (z >> 30)).wrapping_mul(0xBF58_476D_1CE4_E5B9);
-        z = (z ^ (z >> 27)).wrapping_mul(0x94D0_49BB_1331_11EB);
-        z ^ (z >> 31)
+        Rng(SplitMix(seed))
     }
 
     /// Uniform in [0, 1).
     pub fn next_f32(&mut self) -> f32 {
-        (self.next_u64() >> 40) as f32 / (1u64 << 24) as f32
+        (self.0.next_u64() >> 40) as f32 / (1u64 << 24) as f32
     }
 
     /// Sample `k` of `n` on a jittered grid over the unit square (plain jitter if `n` is not a square).
