@@ -212,12 +212,13 @@ fn split_degenerate<T: Real>(h: &[[T; 3]; 3]) -> Option<[[T; 3]; 2]> {
     Some([c[bi], [c[0][bj], c[1][bj], c[2][bj]]])
 }
 
-/// Intersect the line `l` with the conic `k`: up to 2 points `(u, v)`.
-fn line_conic<T: Real>(l: [T; 3], k: &Conic<T>) -> ([(T, T); 2], usize) {
+/// Intersect the line `l` with the conic `k`: up to 2 points `(u, v)`, and whether the answer
+/// rests on a discriminant within rounding of zero (near tangency).
+fn line_conic<T: Real>(l: [T; 3], k: &Conic<T>) -> ([(T, T); 2], usize, bool) {
     let z = T::ZERO;
     let ll = l[0] * l[0] + l[1] * l[1];
     if !(ll > z) || !ll.is_finite() {
-        return ([(z, z); 2], 0); // the line at infinity
+        return ([(z, z); 2], 0, false); // the line at infinity
     }
     let inv = T::ONE / ll.sqrt();
     let (n0, n1, n2) = (l[0] * inv, l[1] * inv, l[2] * inv);
@@ -229,6 +230,7 @@ fn line_conic<T: Real>(l: [T; 3], k: &Conic<T>) -> ([(T, T); 2], usize) {
     let s1 = two * a * qx * rx + two * b * qy * ry + c * (qx * ry + qy * rx) + d * rx + e * ry;
     let s0 = k.at(qx, qy);
     let (mut r, mut n) = solve_quadratic(s2, s1, s0);
+    let mut near_tangent = false;
     if n == 0 && s2 != z {
         // Near tangency the discriminant's sign is lost in the rounding of everything upstream
         // (pencil root, line factors): offer the parabola's vertex when the discriminant is
@@ -238,13 +240,14 @@ fn line_conic<T: Real>(l: [T; 3], k: &Conic<T>) -> ([(T, T); 2], usize) {
         if disc > -T::gamma(8).sqrt() * (s1 * s1 + (T::from_f64(4.0) * s2 * s0).abs()) {
             r[0] = -s1 / (s2 + s2);
             n = 1;
+            near_tangent = true;
         }
     }
     let mut out = [(z, z); 2];
     for i in 0..n {
         out[i] = (qx + r[i] * rx, qy + r[i] * ry);
     }
-    (out, n)
+    (out, n, near_tangent)
 }
 
 /// A unit vector pair `(n1, n2)` orthogonal to `d` and to each other (Duff et al. 2017).
@@ -319,9 +322,13 @@ fn newton_step<T: Real>(p: &Patch<T>, o: V3<T>, d: V3<T>, u: T, v: T, t: T) -> O
     (nu.is_finite() && nv.is_finite() && nt.is_finite()).then_some((nu, nv, nt))
 }
 
-/// The paper's analytic intersection in the local frame; `polish` adds one Newton step per root.
-fn analytic_local<T: Real>(p: &Patch<T>, o: V3<T>, d: V3<T>, tmin: T, tmax: T, polish: bool) -> Option<PatchHit<T>> {
-    let (n1, n2) = planes_for(d)?;
+/// The paper's analytic intersection in the local frame; `polish` adds Newton steps per root.
+/// Also says whether the answer is *ambiguous*: it rested on a step whose sign or acceptance
+/// is within rounding (a discriminant near zero, a root just outside the domain or off the ray,
+/// no usable degenerate conic), so that a higher precision may decide differently.
+fn analytic_local<T: Real>(p: &Patch<T>, o: V3<T>, d: V3<T>, tmin: T, tmax: T, polish: bool) -> (Option<PatchHit<T>>, bool) {
+    let mut ambiguous = false;
+    let Some((n1, n2)) = planes_for(d) else { return (None, false) };
     // The two conics: n_k · (P(u,v) - o) = 0.
     let conic = |n: V3<T>| Conic {
         k: [n.dot(p.a), n.dot(p.b), n.dot(p.c), n.dot(p.d), n.dot(p.e), n.dot(p.f - o)],
@@ -330,7 +337,7 @@ fn analytic_local<T: Real>(p: &Patch<T>, o: V3<T>, d: V3<T>, tmin: T, tmax: T, p
     let (nf, ng) = (cf.norm(), cg.norm());
     if nf == T::ZERO || ng == T::ZERO {
         // The ray lies in the patch's plane (a flat patch seen edge-on): no isolated hit.
-        return None;
+        return (None, false);
     }
     let (m, n) = (cf.mat(), cg.mat());
     // det(x M + N) = x³ det M + x² tr(adj(M) N) + x tr(M adj(N)) + det N.
@@ -387,10 +394,14 @@ fn analytic_local<T: Real>(p: &Patch<T>, o: V3<T>, d: V3<T>, tmin: T, tmax: T, p
             }
             (h, &cg)
         };
-        let Some(lines) = split_degenerate(&h) else { continue };
+        let Some(lines) = split_degenerate(&h) else {
+            ambiguous = true;
+            continue;
+        };
         let mut found_any = false;
         for l in lines {
-            let (pts, k) = line_conic(l, other);
+            let (pts, k, near_tangent) = line_conic(l, other);
+            ambiguous |= near_tangent;
             for &(u0, v0) in &pts[..k] {
                 let (mut u, mut v) = (u0, v0);
                 let q = p.eval_local(u, v) - o;
@@ -398,6 +409,7 @@ fn analytic_local<T: Real>(p: &Patch<T>, o: V3<T>, d: V3<T>, tmin: T, tmax: T, p
                 // Reject spurious roots (from rounding in the pencil) by the distance to the ray.
                 let res = (q - d * t).length();
                 if !(res <= size_tol) {
+                    ambiguous = true;
                     continue;
                 }
                 let unpolished = (u, v, t);
@@ -416,7 +428,10 @@ fn analytic_local<T: Real>(p: &Patch<T>, o: V3<T>, d: V3<T>, tmin: T, tmax: T, p
                     let scale = T::ONE + o.max_abs() + (d * t).max_abs();
                     let res = (p.eval_local(u, v) - o - d * t).max_abs();
                     if !(res <= T::gamma(1024) * scale) {
-                        continue;
+                        // Newton diverged (a near-singular Jacobian at tangency): keep the
+                        // unpolished root, which passed the residual gate.
+                        ambiguous = true;
+                        (u, v, t) = unpolished;
                     }
                     // Two close roots (grazing): if the step jumped out of the domain, keep the
                     // unpolished root when that one is inside.
@@ -425,6 +440,10 @@ fn analytic_local<T: Real>(p: &Patch<T>, o: V3<T>, d: V3<T>, tmin: T, tmax: T, p
                     }
                 }
                 found_any = true;
+                let margin = T::from_f64(1e-3);
+                if !inside(u, v) && u >= -margin && v >= -margin && T::ONE - u - v >= -margin {
+                    ambiguous = true;
+                }
                 if inside(u, v) && t > tmin && t < tmax && best.is_none_or(|b| t < b.t) {
                     best = Some(PatchHit { t, u, v });
                 }
@@ -435,14 +454,15 @@ fn analytic_local<T: Real>(p: &Patch<T>, o: V3<T>, d: V3<T>, tmin: T, tmax: T, p
             break;
         }
     }
-    best.map(|h| {
+    let hit = best.map(|h| {
         // Report barycentrics clamped into the triangle.
         let u = h.u.max(T::ZERO);
         let v = h.v.max(T::ZERO);
         let s = u + v;
         let (u, v) = if s > T::ONE { (u / s, v / s) } else { (u, v) };
         PatchHit { t: h.t, u, v }
-    })
+    });
+    (hit, ambiguous)
 }
 
 /// Newton–Raphson on `(u, v, t)` from the hit of the ray with the flat triangle's plane.
@@ -503,8 +523,19 @@ pub fn intersect<T: Real>(p: &Patch<T>, org: V3<T>, dir: V3<T>, tmin: T, tmax: T
         return None;
     }
     match method {
-        Method::Analytic => analytic_local(p, o, d, tmin, tmax, false),
-        Method::AnalyticPolished => analytic_local(p, o, d, tmin, tmax, true),
+        Method::Analytic => analytic_local(p, o, d, tmin, tmax, false).0,
+        Method::AnalyticPolished => {
+            let (hit, ambiguous) = analytic_local(p, o, d, tmin, tmax, true);
+            // In f32, a miss that rested on a step within rounding (near tangency, a root at the
+            // domain's edge) is decided again in f64 on the same f32 surface: the f32 solve
+            // stays the common path, f64 only settles the rays it cannot.
+            if hit.is_none() && ambiguous && T::UNIT_ROUNDOFF.to_f64() > 1e-10 {
+                let p64 = p.cast::<f64>();
+                let (h, _) = analytic_local(&p64, o.cast(), d.cast(), tmin.to_f64(), tmax.to_f64(), true);
+                return h.map(|h| PatchHit { t: T::from_f64(h.t), u: T::from_f64(h.u), v: T::from_f64(h.v) });
+            }
+            hit
+        }
         Method::Newton => newton_local(p, o, d, tmin, tmax),
     }
 }

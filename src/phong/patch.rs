@@ -113,6 +113,25 @@ impl<T: Real> Patch<T> {
         }
     }
 
+    /// The same patch in another precision (fields converted; from f32 to f64 exactly).
+    pub fn cast<U: Real>(&self) -> Patch<U> {
+        Patch {
+            center: self.center.cast(),
+            scale: U::from_f64(self.scale.to_f64()),
+            inv_scale: U::from_f64(self.inv_scale.to_f64()),
+            a: self.a.cast(),
+            b: self.b.cast(),
+            c: self.c.cast(),
+            d: self.d.cast(),
+            e: self.e.cast(),
+            f: self.f.cast(),
+            n: self.n.map(|x| x.cast()),
+            lo: self.lo.cast(),
+            hi: self.hi.cast(),
+            degenerate: self.degenerate,
+        }
+    }
+
     /// The local-frame point at `(u, v)`.
     #[inline(always)]
     pub fn eval_local(&self, u: T, v: T) -> V3<T> {
