@@ -62,6 +62,10 @@ pub struct RenderArgs {
     /// Render flat and Phong side by side with a difference panel (the paper's Figure 1).
     #[arg(long)]
     pub compare: bool,
+    /// Bend crease edges by their own normals like plain Phong tessellation (cracks open along
+    /// creases); only to show what the default straight-crease rule prevents.
+    #[arg(long)]
+    pub open_creases: bool,
     /// A TOML scene file with camera, lights, per-object mode/alpha and render settings.
     #[arg(long)]
     pub scene_file: Option<PathBuf>,

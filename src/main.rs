@@ -97,13 +97,14 @@ fn render_cmd(args: RenderArgs) -> anyhow::Result<()> {
         Mode::Phong => ObjectMode::Phong { alpha: args.alpha },
     };
     let device = Device::new().context("cannot start Embree")?;
+    let open_creases = args.open_creases;
 
     let settings_for = |forced: Option<ObjectMode>| {
         let sf = sf.clone();
         let overrides = overrides.clone();
         move |_i: usize, mesh: &scene::Mesh| -> ObjectSettings {
             if let Some(m) = forced {
-                return ObjectSettings { mode: m };
+                return ObjectSettings { mode: m, straight_creases: !open_creases };
             }
             let mut mode = default_mode;
             if let Some(sf) = &sf {
@@ -121,7 +122,7 @@ fn render_cmd(args: RenderArgs) -> anyhow::Result<()> {
                     mode = *m;
                 }
             }
-            ObjectSettings { mode }
+            ObjectSettings { mode, straight_creases: !open_creases }
         }
     };
 

@@ -14,7 +14,7 @@ fn settings(w: u32, threads: Option<usize>) -> RenderSettings {
 }
 
 fn sphere_world(device: &Device, seg: u32, rings: u32, mode: ObjectMode) -> World {
-    World::from_scene(device, &Scene::from_mesh(uv_sphere(seg, rings, 1.0)), |_, _| ObjectSettings { mode }).unwrap()
+    World::from_scene(device, &Scene::from_mesh(uv_sphere(seg, rings, 1.0)), |_, _| ObjectSettings::new(mode)).unwrap()
 }
 
 fn camera() -> Camera {

@@ -140,6 +140,16 @@ pub struct Object {
 #[derive(Clone, Debug)]
 pub struct ObjectSettings {
     pub mode: ObjectMode,
+    /// Keep crease and border edges straight (Phong mode), so patches beside a crease share their
+    /// edge. `false` bends every edge by its own normals, as plain Phong tessellation does: only
+    /// for showing the cracks that this prevents.
+    pub straight_creases: bool,
+}
+
+impl ObjectSettings {
+    pub fn new(mode: ObjectMode) -> Self {
+        ObjectSettings { mode, straight_creases: true }
+    }
 }
 
 /// Objects in one committed Embree scene, indexed by geomID, and the lights.
@@ -186,7 +196,7 @@ impl World {
                         .iter()
                         .map(|k| k.map(|e| e != sc::EdgeKind::Smooth))
                         .collect();
-                    let straight = (straight.len() == mesh.indices.len()).then_some(straight);
+                    let straight = (s.straight_creases && straight.len() == mesh.indices.len()).then_some(straight);
                     let pm = PhongMesh::with_straight_edges(&mesh.positions, &mesh.normals, &mesh.indices, alpha, straight.as_deref())
                         .with_context(|| format!("object {:?}", mesh.name))?;
                     phong = Some(pm.clone());
