@@ -107,6 +107,7 @@ fn rays_aimed_at_crease_edges_hit() {
             }
         }
     }
+    println!("{n} rays aimed at crease edges");
     assert!(n > 4000);
 }
 
