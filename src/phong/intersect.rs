@@ -290,6 +290,36 @@ fn hits_bounds<T: Real>(p: &Patch<T>, o: V3<T>, d: V3<T>, tmin: T, tmax: T) -> b
     true
 }
 
+/// Clip the ray against the patch's prism of half-spaces: whether any of `(tmin, tmax)` stays.
+#[inline(always)]
+fn hits_prism<T: Real>(p: &Patch<T>, o: V3<T>, d: V3<T>, tmin: T, tmax: T) -> bool {
+    let (mut t0, mut t1) = (tmin, tmax);
+    for k in 0..5 {
+        let n = p.prism_n[k];
+        let dist = p.prism_h[k] - n.dot(o); // >= 0 inside
+        let dn = n.dot(d);
+        // Rounding of the two dot products (local frame, |o| and |d| terms): widen the plane.
+        let slack = T::gamma(8) * (T::ONE + o.max_abs() + p.prism_h[k].abs());
+        if dn == T::ZERO {
+            if dist < -slack {
+                return false;
+            }
+            continue;
+        }
+        // Widen the half-space outwards by `slack`: enter earlier, leave later.
+        let t = (dist + slack) / dn;
+        if dn > T::ZERO {
+            t1 = t1.min(t); // leaving through this plane
+        } else {
+            t0 = t0.max(t); // entering
+        }
+        if t0 > t1 {
+            return false;
+        }
+    }
+    true
+}
+
 /// How far outside `[0, 1]` a barycentric may be and still count as inside: the parameter
 /// error of the f32/f64 solve after its Newton step, so that a ray through a shared edge is
 /// reported by at least one of the two patches (no cracks).
@@ -440,7 +470,8 @@ fn analytic_local<T: Real>(p: &Patch<T>, o: V3<T>, d: V3<T>, tmin: T, tmax: T, p
                     }
                 }
                 found_any = true;
-                let margin = T::from_f64(1e-3);
+                // Within 64 domain tolerances of the domain: the f32 answer may flip in f64.
+                let margin = domain_tolerance::<T>() * T::from_f64(64.0);
                 if !inside(u, v) && u >= -margin && v >= -margin && T::ONE - u - v >= -margin {
                     ambiguous = true;
                 }
@@ -519,7 +550,7 @@ pub fn intersect<T: Real>(p: &Patch<T>, org: V3<T>, dir: V3<T>, tmin: T, tmax: T
     if !(o.is_finite() && d.is_finite()) || d.max_abs() == T::ZERO {
         return None;
     }
-    if !hits_bounds(p, o, d, tmin, tmax) {
+    if !hits_bounds(p, o, d, tmin, tmax) || !hits_prism(p, o, d, tmin, tmax) {
         return None;
     }
     match method {

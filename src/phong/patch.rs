@@ -33,6 +33,11 @@ pub struct Patch<T> {
     /// Conservative local-frame bounds (hull of the 6 control points, padded).
     pub lo: V3<T>,
     pub hi: V3<T>,
+    /// A tighter conservative hull (local frame): the prism of 5 half-spaces `n_k · x <= h_k`:
+    /// the face normal and its opposite (the patch's thickness) and the 3 outward edge normals in
+    /// the face plane (each edge's side drop), every offset the maximum over the 6 control points.
+    pub prism_n: [V3<T>; 5],
+    pub prism_h: [T; 5],
     /// Whether the patch has zero area or non-finite input: it is never hit.
     pub degenerate: bool,
 }
@@ -94,6 +99,12 @@ impl<T: Real> Patch<T> {
         // Pad by the rounding of the control points and their cast to T (relative to the
         // local frame, whose extent is about 1).
         let pad = T::gamma(8).to_f64() * 4.0 + f64::EPSILON * 16.0;
+        // The prism (Ogaki & Tokuyoshi 2011 bound the patch by its thickness and edge side drops;
+        // this is the same idea taken over the control points, so it is conservative).
+        let fnorm = (q[1] - q[0]).cross(q[2] - q[0]).normalized().unwrap_or(V3::new(0.0, 0.0, 1.0));
+        let edge_out = |a: V3<f64>, b: V3<f64>| (b - a).cross(fnorm).normalized().unwrap_or(fnorm);
+        let prism_n = [fnorm, -fnorm, edge_out(q[0], q[1]), edge_out(q[1], q[2]), edge_out(q[2], q[0])];
+        let prism_h = prism_n.map(|n| q.iter().map(|x| n.dot(*x)).fold(f64::NEG_INFINITY, f64::max) + pad);
         lo = lo - V3::new(pad, pad, pad);
         hi = hi + V3::new(pad, pad, pad);
         Patch {
@@ -109,6 +120,8 @@ impl<T: Real> Patch<T> {
             n: n.map(|x| x.cast()),
             lo: lo.cast(),
             hi: hi.cast(),
+            prism_n: prism_n.map(|n| n.cast()),
+            prism_h: prism_h.map(T::from_f64),
             degenerate,
         }
     }
@@ -126,6 +139,8 @@ impl<T: Real> Patch<T> {
             e: self.e.cast(),
             f: self.f.cast(),
             n: self.n.map(|x| x.cast()),
+            prism_n: self.prism_n.map(|n| n.cast()),
+            prism_h: self.prism_h.map(|h| U::from_f64(h.to_f64())),
             lo: self.lo.cast(),
             hi: self.hi.cast(),
             degenerate: self.degenerate,
