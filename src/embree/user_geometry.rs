@@ -150,6 +150,7 @@ unsafe extern "C" fn bounds_callback<T: UserPrimitives>(args: *const sys::RTCBou
         // rtcSetGeometryUserData: a `T` kept alive by the scene (the bounds callback's own
         // userPtr is ignored by Embree 4, so we never rely on it).
         let args = unsafe { &*args };
+        // SAFETY: geometryUserPtr is the `T` set by `new_user_geometry`, alive while the scene is.
         let data = unsafe { &*(args.geometryUserPtr as *const T) };
         let b = data.bounds(args.primID);
         // SAFETY: bounds_o points to one writable RTCBounds (rtcSetGeometryBoundsFunction docs).
@@ -181,7 +182,9 @@ unsafe extern "C" fn intersect_callback<T: UserPrimitives>(args: *const sys::RTC
         if n == 0 || n > MAX_N {
             return;
         }
+        // SAFETY: geometryUserPtr is our `T` (see above).
         let data = unsafe { &*(a.geometryUserPtr as *const T) };
+        // SAFETY: `valid` points to N ints (Embree's RTCIntersectFunctionNArguments contract).
         let valid = unsafe { std::slice::from_raw_parts(a.valid, n) };
         let ray = Soa { base: a.rayhit as *mut u32, n };
         // SAFETY: the hit part of an RTCRayHitN starts after the 12 ray fields (rtcore_ray.h).
@@ -197,6 +200,7 @@ unsafe extern "C" fn intersect_callback<T: UserPrimitives>(args: *const sys::RTC
             // beyond it (at most 4 roots: the resultant of a line and a quadratic patch is a quartic).
             for _ in 0..4 {
                 // Read tfar afresh: an accepted hit shortens the ray.
+                // SAFETY: lane < n in an RTCRayHitN of width n.
                 let tfar = unsafe { ray.f(RAY_TFAR, lane) };
                 let Some(h) = data.intersect(a.primID, r.org, r.dir, tnear, tfar) else { break };
                 // SAFETY: as above; we save every field we overwrite to restore on rejection.
@@ -245,7 +249,9 @@ unsafe extern "C" fn occluded_callback<T: UserPrimitives>(args: *const sys::RTCO
         if n == 0 || n > MAX_N {
             return;
         }
+        // SAFETY: geometryUserPtr is our `T`, alive while the scene is.
         let data = unsafe { &*(a.geometryUserPtr as *const T) };
+        // SAFETY: `valid` points to N ints (RTCOccludedFunctionNArguments contract).
         let valid = unsafe { std::slice::from_raw_parts(a.valid, n) };
         let ray = Soa { base: a.ray as *mut u32, n };
         let mut buf = HitBuf([0; HIT_FIELDS * MAX_N]);
