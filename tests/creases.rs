@@ -127,3 +127,37 @@ fn corpus_closed_models_leak_nothing() {
     let e = escapes(&scene, (lo + hi) * 0.5, 1_000_000, 9);
     assert_eq!(e, 0, "sphere_smooth: {e} of 10^6 rays escaped");
 }
+
+#[test]
+fn rendered_cylinder_shows_no_background_inside_its_silhouette() {
+    use phongrt::render::{render, Camera, ObjectMode, ObjectSettings, RenderSettings, World};
+    let device = Device::new().unwrap();
+    let text = cylinder_obj(16);
+    let scene = phongrt::scene::load_obj_text(&text, std::path::Path::new("cyl.obj"), &LoadOptions::default()).unwrap();
+    let mut holes = Vec::new();
+    for straight in [true, false] {
+        let world = World::from_scene(&device, &scene, |_, _| ObjectSettings {
+            mode: ObjectMode::Phong { alpha: 1.0 },
+            straight_creases: straight,
+        })
+        .unwrap();
+        let (lo, hi) = world.bounds;
+        let cam = Camera { eye: Vec3::new(0.0, 2.0, 3.5), ..Camera::frame_bounds(lo, hi, 1.0) };
+        let s = RenderSettings { width: 300, height: 300, spp: 1, threads: Some(2), progress: false, seed: 0 };
+        let img = render(&world, &cam, &s).unwrap().image;
+        let bg = |x: u32, y: u32| img.get(x, y) == world.background;
+        // A crack is background with foreground on both sides (horizontally or vertically).
+        let mut n = 0;
+        for y in 1..img.height - 1 {
+            for x in 1..img.width - 1 {
+                if bg(x, y) && ((!bg(x - 1, y) && !bg(x + 1, y)) || (!bg(x, y - 1) && !bg(x, y + 1))) {
+                    n += 1;
+                }
+            }
+        }
+        holes.push(n);
+    }
+    println!("background pixels inside the silhouette: straight creases {}, open creases {}", holes[0], holes[1]);
+    assert_eq!(holes[0], 0);
+    assert!(holes[1] > 0, "the open-crease render shows no crack: the test lost its power");
+}
