@@ -163,3 +163,30 @@ fn embree_path_matches_the_pure_rust_intersector() {
     }
     assert!(hits > 10_000);
 }
+
+#[test]
+fn phong_mesh_attaches_to_a_raw_scene_made_by_the_callers_own_embree_code() {
+    use phongrt::embree::{attach_phong_raw, sys};
+    let device = Device::new().unwrap();
+    let mesh = uv_sphere(12, 6, 1.0);
+    let pm = PhongMesh::new(mesh.positions.clone(), mesh.normals.clone(), mesh.indices.clone(), 1.0).unwrap();
+    // The caller's own scene, created through the raw API on our device.
+    let helper = Scene::new(&device).unwrap(); // only to reach the raw device handle
+    // SAFETY (test): the device is live while `helper` is; the raw scene is released below,
+    // before the handle returned by attach_phong_raw is dropped.
+    unsafe {
+        let raw_device = sys::rtcGetSceneDevice(helper.raw());
+        let raw = sys::rtcNewScene(raw_device);
+        let handle = attach_phong_raw(raw, pm, UserGeometryOptions::default()).unwrap();
+        sys::rtcCommitScene(raw);
+        let mut rh = phongrt::embree::scene::new_rayhit(Ray::new(Vec3::new(0.0, 3.0, 0.0), -Vec3::Y));
+        sys::rtcIntersect1(raw, &mut rh, std::ptr::null_mut());
+        assert_eq!(rh.hit.geomID, handle.geom_id);
+        assert!((rh.ray.tfar - 2.0).abs() < 1e-5, "t = {}", rh.ray.tfar);
+        let n = handle.mesh().shading_normal(rh.hit.primID, rh.hit.u, rh.hit.v, -Vec3::Y).unwrap();
+        assert!(n.dot(Vec3::Y) > 0.999);
+        sys::rtcReleaseScene(raw);
+        sys::rtcReleaseDevice(raw_device);
+        drop(handle);
+    }
+}

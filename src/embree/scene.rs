@@ -82,6 +82,11 @@ pub(crate) fn empty_rayhit(ray: Ray) -> sys::RTCRayHit {
     }
 }
 
+/// A raw `RTCRayHit` for `ray` with no hit yet (geomID invalid), for callers of the raw API.
+pub fn new_rayhit(ray: Ray) -> sys::RTCRayHit {
+    empty_rayhit(ray)
+}
+
 pub(crate) fn hit_of(rh: &sys::RTCRayHit) -> Option<Hit> {
     (rh.hit.geomID != sys::RTC_INVALID_GEOMETRY_ID).then(|| Hit {
         t: rh.ray.tfar,
