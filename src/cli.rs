@@ -26,6 +26,9 @@ pub enum Command {
     /// Measure every intersector (analytic, analytic+polish, Newton; f32 and f64) against an
     /// independent reference on hard cases, and print a markdown table.
     Accuracy(AccuracyArgs),
+    /// Measure every method (flat, pre-tessellated 1..64, direct f32/f64, Newton, user-geometry
+    /// floor, Catmull-Clark) on spheres of growing size and the given OBJ files: CSV, table, plot.
+    Bench(BenchArgs),
 }
 
 /// How surfaces are made.
@@ -123,6 +126,24 @@ pub struct AccuracyArgs {
     /// Seed of the case generator.
     #[arg(long, default_value_t = 1)]
     pub seed: u64,
+}
+
+#[derive(Args, Debug)]
+pub struct BenchArgs {
+    /// Extra OBJ models (the first mesh of each).
+    pub models: Vec<PathBuf>,
+    /// Output directory for bench.csv, bench.md and bench.png.
+    #[arg(long, default_value = "bench-out")]
+    pub out: PathBuf,
+    /// Image size (primary rays per method = size²).
+    #[arg(long, default_value_t = 256)]
+    pub size: u32,
+    /// Sphere sizes as segments (rings = segments / 2), comma separated.
+    #[arg(long, default_value = "12,48,192", value_delimiter = ',')]
+    pub spheres: Vec<u32>,
+    /// Skip pre-tessellation levels above this.
+    #[arg(long, default_value_t = 64)]
+    pub max_level: u32,
 }
 
 /// Parse "x,y,z" into a vector of finite numbers.

@@ -7,6 +7,7 @@
 //! * [`scene`]: OBJ/MTL loading, welding, normals, generated meshes.
 //! * [`render`]: a thin renderer on top of Embree.
 
+pub mod bench;
 pub mod embree;
 pub mod phong;
 pub mod render;

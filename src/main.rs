@@ -33,6 +33,7 @@ fn run(cli: Cli) -> anyhow::Result<()> {
     match cli.command {
         Command::Render(args) => render_cmd(args),
         Command::Info(args) => info_cmd(args),
+        Command::Bench(args) => bench_cmd(args),
         Command::Accuracy(args) => {
             anyhow::ensure!(args.rays > 0, "--rays must be at least 1");
             print!("{}", phongrt::phong::accuracy::report(args.rays, args.seed));
@@ -248,6 +249,52 @@ fn apply_scene_file(world: &mut World, sf: &SceneFile) {
             }
         }
     }
+}
+
+fn bench_cmd(args: cli::BenchArgs) -> anyhow::Result<()> {
+    use phongrt::bench::{bench_scene, plot, to_csv, to_markdown, BenchMethod};
+    anyhow::ensure!(args.size >= 8 && args.size <= 4096, "--size {} is not in 8..=4096", args.size);
+    let methods: Vec<BenchMethod> = BenchMethod::all()
+        .into_iter()
+        .filter(|m| !matches!(m, BenchMethod::Pretessellated(l) if *l > args.max_level))
+        .collect();
+    let mut scenes: Vec<(String, scene::Mesh)> = Vec::new();
+    for &s in &args.spheres {
+        anyhow::ensure!((3..=4096).contains(&s), "--spheres: {s} segments is not in 3..=4096");
+        let m = scene::uv_sphere(s, (s / 2).max(2), 1.0);
+        scenes.push((format!("sphere-{}", m.indices.len()), m));
+    }
+    for p in &args.models {
+        let s = load(p, &LoadOptions::default())?;
+        let name = p.file_stem().map(|s| s.to_string_lossy().into_owned()).unwrap_or_default();
+        let m = s.meshes.into_iter().next().with_context(|| format!("{}: no mesh", p.display()))?;
+        scenes.push((name, m));
+    }
+    std::fs::create_dir_all(&args.out).with_context(|| format!("{}: cannot create", args.out.display()))?;
+    let bar = if std::io::IsTerminal::is_terminal(&std::io::stderr()) {
+        indicatif::ProgressBar::new((scenes.len() * (methods.len() + 1)) as u64)
+    } else {
+        indicatif::ProgressBar::hidden()
+    };
+    bar.set_style(indicatif::ProgressStyle::with_template("{bar:30} {pos}/{len} {msg}").unwrap_or_else(|_| indicatif::ProgressStyle::default_bar()));
+    let mut rows = Vec::new();
+    for (name, m) in &scenes {
+        rows.extend(bench_scene(name, m, &methods, args.size, args.size, |msg| {
+            if msg.contains("skipped") {
+                bar.suspend(|| eprintln!("phongrt: {msg}"));
+            }
+            bar.set_message(msg.to_string());
+            bar.inc(1);
+        })?);
+    }
+    bar.finish_and_clear();
+    let md = to_markdown(&rows);
+    std::fs::write(args.out.join("bench.csv"), to_csv(&rows))?;
+    std::fs::write(args.out.join("bench.md"), &md)?;
+    plot(&rows).save(&args.out.join("bench.png"))?;
+    print!("{md}");
+    eprintln!("phongrt: wrote {}/bench.csv, bench.md, bench.png", args.out.display());
+    Ok(())
 }
 
 fn report(what: &str, out: &RenderOutput) {

@@ -129,3 +129,20 @@ fn every_corpus_model_renders_or_is_refused() {
         }
     }
 }
+
+#[test]
+fn bench_writes_csv_table_and_plot() {
+    let dir = tempfile::tempdir().unwrap();
+    let a = phongrt()
+        .args(["bench", "--spheres", "8", "--size", "24", "--max-level", "2", "--out"])
+        .arg(dir.path())
+        .assert()
+        .success()
+        .stdout(predicate::str::contains("| direct-f32 |").and(predicate::str::contains("| subdiv-cc |")).and(predicate::str::contains("pretess-2")));
+    let _ = a;
+    let csv = std::fs::read_to_string(dir.path().join("bench.csv")).unwrap();
+    assert_eq!(csv.lines().count(), 1 + 1 + 2 + 5, "{csv}");
+    // The f64 direct render is the reference: zero error against itself.
+    assert!(csv.lines().any(|l| l.contains(",direct-f64,") && l.ends_with(",0.000e0,0.000e0,0")), "{csv}");
+    assert!(image::open(dir.path().join("bench.png")).is_ok());
+}

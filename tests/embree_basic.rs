@@ -80,3 +80,17 @@ fn out_of_range_index_is_refused() {
         .unwrap_err();
     assert!(err.to_string().contains("out of range"));
 }
+
+#[test]
+fn subdivision_surface_of_an_octahedron_is_inside_it_and_hit() {
+    let device = Device::new().unwrap();
+    let p = vec![Vec3::X, -Vec3::X, Vec3::Y, -Vec3::Y, Vec3::Z, -Vec3::Z];
+    let i = vec![[0, 2, 4], [2, 1, 4], [1, 3, 4], [3, 0, 4], [2, 0, 5], [1, 2, 5], [3, 1, 5], [0, 3, 5]];
+    let mut scene = Scene::new(&device).unwrap();
+    scene.attach_subdivision(&p, &i, 8.0).unwrap();
+    scene.commit().unwrap();
+    // Catmull–Clark shrinks towards the control hull's inside: the hit from +x is inside the vertex.
+    let h = scene.intersect1(Ray::new(Vec3::new(3.0, 0.01, 0.02), -Vec3::X)).expect("hit");
+    assert!(h.t > 2.0 && h.t < 2.9, "t = {}", h.t);
+    assert!(scene.attach_subdivision(&p, &[[0, 1, 9]], 4.0).is_err());
+}

@@ -271,6 +271,65 @@ impl Scene {
         self.attach_raw(geom)
     }
 
+    /// Attach a Catmull–Clark subdivision surface over a triangle control mesh (Embree's own
+    /// smooth surface, what an Embree user would reach for instead of Phong tessellation), with
+    /// `tessellation_rate` segments per edge. Returns the geomID.
+    pub fn attach_subdivision(
+        &mut self,
+        positions: &[Vec3],
+        indices: &[[u32; 3]],
+        tessellation_rate: f32,
+    ) -> Result<u32, EmbreeError> {
+        if let Some(bad) = indices.iter().flatten().find(|&&i| i as usize >= positions.len()) {
+            return Err(EmbreeError::Invalid(format!("subdivision index {bad} out of range for {} vertices", positions.len())));
+        }
+        if !(tessellation_rate.is_finite() && tessellation_rate >= 1.0) {
+            return Err(EmbreeError::Invalid(format!("tessellation rate {tessellation_rate} is not >= 1")));
+        }
+        let device = self.device().clone();
+        // SAFETY: as in `attach_triangles`: Embree-allocated buffers (with 16 bytes of padding),
+        // written within their sizes through rtcGetBufferData, bound before commit; the face
+        // buffer holds one u32 (3) per face and the index buffer one u32 per corner, as
+        // RTC_GEOMETRY_TYPE_SUBDIVISION requires (rtcNewGeometry docs, "Subdivision geometry").
+        let geom = unsafe {
+            let geom = sys::rtcNewGeometry(device.raw(), sys::RTCGeometryType::RTC_GEOMETRY_TYPE_SUBDIVISION);
+            device.check()?;
+            let vbuf = sys::rtcNewBuffer(device.raw(), positions.len() * 12 + 16);
+            device.check()?;
+            let vptr = sys::rtcGetBufferData(vbuf) as *mut f32;
+            for (i, p) in positions.iter().enumerate() {
+                vptr.add(3 * i).write(p.x);
+                vptr.add(3 * i + 1).write(p.y);
+                vptr.add(3 * i + 2).write(p.z);
+            }
+            sys::rtcSetGeometryBuffer(geom, sys::RTCBufferType::RTC_BUFFER_TYPE_VERTEX, 0, sys::RTCFormat::RTC_FORMAT_FLOAT3, vbuf, 0, 12, positions.len());
+            sys::rtcReleaseBuffer(vbuf);
+            let ibuf = sys::rtcNewBuffer(device.raw(), indices.len() * 12 + 16);
+            device.check()?;
+            let iptr = sys::rtcGetBufferData(ibuf) as *mut u32;
+            for (i, t) in indices.iter().enumerate() {
+                for (k, &idx) in t.iter().enumerate() {
+                    iptr.add(3 * i + k).write(idx);
+                }
+            }
+            sys::rtcSetGeometryBuffer(geom, sys::RTCBufferType::RTC_BUFFER_TYPE_INDEX, 0, sys::RTCFormat::RTC_FORMAT_UINT, ibuf, 0, 4, indices.len() * 3);
+            sys::rtcReleaseBuffer(ibuf);
+            let fbuf = sys::rtcNewBuffer(device.raw(), indices.len() * 4 + 16);
+            device.check()?;
+            let fptr = sys::rtcGetBufferData(fbuf) as *mut u32;
+            for i in 0..indices.len() {
+                fptr.add(i).write(3);
+            }
+            sys::rtcSetGeometryBuffer(geom, sys::RTCBufferType::RTC_BUFFER_TYPE_FACE, 0, sys::RTCFormat::RTC_FORMAT_UINT, fbuf, 0, 4, indices.len());
+            sys::rtcReleaseBuffer(fbuf);
+            sys::rtcSetGeometryTessellationRate(geom, tessellation_rate);
+            sys::rtcCommitGeometry(geom);
+            geom
+        };
+        device.check()?;
+        self.attach_raw(geom)
+    }
+
     /// Attach an instance of `child` (which must be committed) with `transform` (object to
     /// world); returns its geomID (the instID hits inside it report).
     pub fn attach_instance(&mut self, child: &Scene, transform: Mat4, mask: u32) -> Result<u32, EmbreeError> {

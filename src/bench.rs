@@ -1,0 +1,384 @@
+//! `phongrt bench`: what accuracy costs in time — every way of getting a smooth surface side by
+//! side, on the same mesh, camera and machine, against the f64 direct Phong render as reference.
+
+use std::time::Instant;
+
+use glam::Vec3;
+use rayon::prelude::*;
+
+use crate::embree::{Device, GeometryOptions, PhongMesh, PrimHit, Ray, Scene, UserGeometryOptions, UserPrimitives, UserTriangles};
+use crate::phong::{intersect, Method, Patch, V3};
+use crate::render::Camera;
+use crate::scene::{EdgeKind, Mesh};
+
+/// The ways of rendering a smooth surface from a low-poly mesh.
+#[derive(Clone, Copy, Debug, PartialEq)]
+pub enum BenchMethod {
+    /// Embree's native triangles of the input mesh.
+    Flat,
+    /// The Phong surface evaluated at `L` segments per edge into native triangles.
+    Pretessellated(u32),
+    /// Direct Phong, analytic + polish, f32 (the render path).
+    DirectF32,
+    /// Direct Phong, analytic + polish, f64.
+    DirectF64,
+    /// Direct Phong, Newton–Raphson, f32.
+    NewtonF32,
+    /// The input triangles as a user geometry with a trivial test: the callback route's floor.
+    UserFloor,
+    /// Embree's Catmull–Clark subdivision surface over the same control mesh (rate 8).
+    Subdivision,
+}
+
+impl BenchMethod {
+    pub fn name(&self) -> String {
+        match self {
+            BenchMethod::Flat => "flat".into(),
+            BenchMethod::Pretessellated(l) => format!("pretess-{l}"),
+            BenchMethod::DirectF32 => "direct-f32".into(),
+            BenchMethod::DirectF64 => "direct-f64".into(),
+            BenchMethod::NewtonF32 => "newton-f32".into(),
+            BenchMethod::UserFloor => "user-floor".into(),
+            BenchMethod::Subdivision => "subdiv-cc".into(),
+        }
+    }
+
+    /// Every method, pre-tessellation at levels 1..64.
+    pub fn all() -> Vec<BenchMethod> {
+        let mut v = vec![BenchMethod::Flat];
+        v.extend([1, 2, 4, 8, 16, 32, 64].map(BenchMethod::Pretessellated));
+        v.extend([BenchMethod::DirectF32, BenchMethod::DirectF64, BenchMethod::NewtonF32, BenchMethod::UserFloor, BenchMethod::Subdivision]);
+        v
+    }
+}
+
+/// Phong patches solved in f64 (the reference's geometry).
+struct PhongMesh64 {
+    patches: Vec<Patch<f64>>,
+}
+
+impl UserPrimitives for PhongMesh64 {
+    fn count(&self) -> u32 {
+        self.patches.len() as u32
+    }
+    fn bounds(&self, prim: u32) -> Option<(Vec3, Vec3)> {
+        let p = self.patches.get(prim as usize)?;
+        if p.degenerate {
+            return None;
+        }
+        let (lo, hi) = p.bounds();
+        // Round outwards to f32.
+        let down = |x: f64| {
+            let f = x as f32;
+            if f as f64 > x { f.next_down() } else { f }
+        };
+        let up = |x: f64| {
+            let f = x as f32;
+            if (f as f64) < x { f.next_up() } else { f }
+        };
+        Some((Vec3::new(down(lo.x), down(lo.y), down(lo.z)), Vec3::new(up(hi.x), up(hi.y), up(hi.z))))
+    }
+    fn intersect(&self, prim: u32, org: Vec3, dir: Vec3, tnear: f32, tfar: f32) -> Option<PrimHit> {
+        let p = self.patches.get(prim as usize)?;
+        let o = V3::new(org.x as f64, org.y as f64, org.z as f64);
+        let d = V3::new(dir.x as f64, dir.y as f64, dir.z as f64);
+        let h = intersect(p, o, d, tnear as f64, tfar as f64, Method::AnalyticPolished)?;
+        let t = h.t as f32;
+        if !(t > tnear && t < tfar) {
+            return None;
+        }
+        let (pu, pv) = p.partials_local(h.u, h.v);
+        let ng = pu.cross(pv);
+        Some(PrimHit { t, u: h.u as f32, v: h.v as f32, ng: Vec3::new(ng.x as f32, ng.y as f32, ng.z as f32) })
+    }
+}
+
+fn straight_edges(m: &Mesh) -> Vec<[bool; 3]> {
+    m.edge_kinds.iter().map(|k| k.map(|e| e != EdgeKind::Smooth)).collect()
+}
+
+fn patches64(m: &Mesh, alpha: f64) -> Vec<Patch<f64>> {
+    let straight = straight_edges(m);
+    m.indices
+        .iter()
+        .enumerate()
+        .map(|(t, tri)| {
+            let p = tri.map(|i| m.positions[i as usize].as_dvec3());
+            let n = tri.map(|i| m.normals[i as usize].as_dvec3());
+            Patch::with_straight_edges(p, n, alpha, straight.get(t).copied().unwrap_or([false; 3]))
+        })
+        .collect()
+}
+
+/// The Phong surface evaluated at `level` segments per edge: `level²` triangles per patch.
+pub fn pretessellate(m: &Mesh, alpha: f64, level: u32) -> (Vec<Vec3>, Vec<[u32; 3]>) {
+    let l = level.max(1);
+    let mut pos = Vec::new();
+    let mut idx = Vec::new();
+    for patch in patches64(m, alpha) {
+        // Grid vertices (i, j) with u = i/l, v = j/l, i + j <= l, row by row.
+        let mut row_start = Vec::with_capacity(l as usize + 1);
+        for j in 0..=l {
+            row_start.push(pos.len() as u32);
+            for i in 0..=(l - j) {
+                let p = patch.eval(i as f64 / l as f64, j as f64 / l as f64);
+                pos.push(Vec3::new(p.x as f32, p.y as f32, p.z as f32));
+            }
+        }
+        let v = |i: u32, j: u32| row_start[j as usize] + i;
+        for j in 0..l {
+            for i in 0..(l - j) {
+                idx.push([v(i, j), v(i + 1, j), v(i, j + 1)]);
+                if i + 1 < l - j {
+                    idx.push([v(i + 1, j), v(i + 1, j + 1), v(i, j + 1)]);
+                }
+            }
+        }
+    }
+    (pos, idx)
+}
+
+/// The largest pre-tessellation the bench builds (about 2 GB of Embree BVH at the measured
+/// ~100 bytes per triangle).
+pub const MAX_PRETESSELLATED_TRIANGLES: u64 = 20_000_000;
+
+/// One method on one scene.
+#[derive(Clone, Debug)]
+pub struct BenchRow {
+    pub scene: String,
+    pub triangles: usize,
+    pub method: String,
+    pub build_ms: f64,
+    pub embree_bytes: i64,
+    pub own_bytes: usize,
+    pub mrays_1t: f64,
+    pub mrays_all: f64,
+    pub first_image_ms: f64,
+    /// Mean and max of |t - t_ref| / t_ref over pixels both hit.
+    pub err_t_mean: f64,
+    pub err_t_max: f64,
+    /// Pixels hit by one and not the other.
+    pub silhouette_px: usize,
+}
+
+fn build(device: &Device, m: &Mesh, method: BenchMethod) -> anyhow::Result<(Scene, usize)> {
+    let mut s = Scene::new(device)?;
+    let own = match method {
+        BenchMethod::Flat => {
+            s.attach_triangles(&m.positions, &m.indices, GeometryOptions::default())?;
+            0
+        }
+        BenchMethod::Pretessellated(l) => {
+            let (p, i) = pretessellate(m, 1.0, l);
+            s.attach_triangles(&p, &i, GeometryOptions::default())?;
+            0
+        }
+        BenchMethod::DirectF32 | BenchMethod::NewtonF32 => {
+            let straight = straight_edges(m);
+            let mut pm = PhongMesh::with_straight_edges(&m.positions, &m.normals, &m.indices, 1.0, Some(&straight))?;
+            if method == BenchMethod::NewtonF32 {
+                pm.method = Method::Newton;
+            }
+            let own = pm.memory_bytes();
+            s.attach_phong(pm, UserGeometryOptions::default())?;
+            own
+        }
+        BenchMethod::DirectF64 => {
+            let patches = patches64(m, 1.0);
+            let own = patches.len() * std::mem::size_of::<Patch<f64>>();
+            s.attach_user(PhongMesh64 { patches }, UserGeometryOptions::default())?;
+            own
+        }
+        BenchMethod::UserFloor => {
+            let own = m.positions.len() * 12 + m.indices.len() * 12;
+            s.attach_user(UserTriangles { positions: m.positions.clone(), indices: m.indices.clone() }, UserGeometryOptions::default())?;
+            own
+        }
+        BenchMethod::Subdivision => {
+            s.attach_subdivision(&m.positions, &m.indices, 8.0)?;
+            0
+        }
+    };
+    s.commit()?;
+    Ok((s, own))
+}
+
+fn depth(scene: &Scene, rays: &[Ray], parallel: bool) -> Vec<Option<f32>> {
+    if parallel {
+        rays.par_iter().map(|r| scene.intersect1(*r).map(|h| h.t)).collect()
+    } else {
+        rays.iter().map(|r| scene.intersect1(*r).map(|h| h.t)).collect()
+    }
+}
+
+/// Run `methods` on `scene_mesh` with primary rays through a `width`×`height` camera framed on it.
+pub fn bench_scene(name: &str, m: &Mesh, methods: &[BenchMethod], width: u32, height: u32, mut progress: impl FnMut(&str)) -> anyhow::Result<Vec<BenchRow>> {
+    let device = Device::new()?;
+    let (lo, hi) = m.positions.iter().fold((Vec3::splat(f32::MAX), Vec3::splat(f32::MIN)), |(a, b), p| (a.min(*p), b.max(*p)));
+    let frame = Camera::frame_bounds(lo, hi, width as f32 / height as f32)
+        .frame(width as f32 / height as f32)
+        .ok_or_else(|| anyhow::anyhow!("{name}: cannot frame a camera on its bounds"))?;
+    let rays: Vec<Ray> = (0..width * height)
+        .map(|i| Ray::new(frame.eye, frame.direction((i % width) as f32 + 0.5, (i / width) as f32 + 0.5, width, height)))
+        .collect();
+    progress(&format!("{name}: reference (direct f64)"));
+    let (refscene, _) = build(&device, m, BenchMethod::DirectF64)?;
+    let reference = depth(&refscene, &rays, true);
+    drop(refscene);
+    let mut rows = Vec::new();
+    for &method in methods {
+        progress(&format!("{name}: {}", method.name()));
+        if let BenchMethod::Pretessellated(l) = method {
+            let tris = m.indices.len() as u64 * (l as u64) * (l as u64);
+            if tris > MAX_PRETESSELLATED_TRIANGLES {
+                // About 100 bytes per triangle in Embree's BVH at this size (measured: 755 MB for
+                // 9.0e6 triangles): beyond the budget it would not fit beside everything else.
+                progress(&format!("{name}: {} skipped: {tris} triangles exceed the budget of {MAX_PRETESSELLATED_TRIANGLES}", method.name()));
+                continue;
+            }
+        }
+        let before = device.memory_bytes().0;
+        let t0 = Instant::now();
+        let (scene, own) = build(&device, m, method)?;
+        let build_ms = t0.elapsed().as_secs_f64() * 1e3;
+        let embree_bytes = device.memory_bytes().0 - before;
+        let t1 = Instant::now();
+        let d_all = depth(&scene, &rays, true);
+        let all_s = t1.elapsed().as_secs_f64();
+        let t2 = Instant::now();
+        let d_one = depth(&scene, &rays, false);
+        let one_s = t2.elapsed().as_secs_f64();
+        debug_assert_eq!(d_all, d_one);
+        let (mut sum, mut max, mut n, mut sil) = (0.0f64, 0.0f64, 0usize, 0usize);
+        for (a, r) in d_one.iter().zip(&reference) {
+            match (a, r) {
+                (Some(a), Some(r)) => {
+                    let e = ((*a as f64 - *r as f64) / *r as f64).abs();
+                    sum += e;
+                    max = max.max(e);
+                    n += 1;
+                }
+                (None, None) => {}
+                _ => sil += 1,
+            }
+        }
+        rows.push(BenchRow {
+            scene: name.to_string(),
+            triangles: m.indices.len(),
+            method: method.name(),
+            build_ms,
+            embree_bytes,
+            own_bytes: own,
+            mrays_1t: rays.len() as f64 / one_s / 1e6,
+            mrays_all: rays.len() as f64 / all_s / 1e6,
+            first_image_ms: build_ms + all_s * 1e3,
+            err_t_mean: if n > 0 { sum / n as f64 } else { 0.0 },
+            err_t_max: max,
+            silhouette_px: sil,
+        });
+        drop(scene);
+    }
+    Ok(rows)
+}
+
+/// CSV with a header line.
+pub fn to_csv(rows: &[BenchRow]) -> String {
+    let mut s = String::from("scene,triangles,method,build_ms,embree_bytes,own_bytes,mrays_1t,mrays_all,first_image_ms,err_t_mean,err_t_max,silhouette_px\n");
+    for r in rows {
+        s += &format!(
+            "{},{},{},{:.3},{},{},{:.3},{:.3},{:.3},{:.3e},{:.3e},{}\n",
+            r.scene, r.triangles, r.method, r.build_ms, r.embree_bytes, r.own_bytes, r.mrays_1t, r.mrays_all, r.first_image_ms, r.err_t_mean, r.err_t_max, r.silhouette_px
+        );
+    }
+    s
+}
+
+/// A markdown table.
+pub fn to_markdown(rows: &[BenchRow]) -> String {
+    let mut s = String::from("| scene | tris | method | build ms | Embree MB | own MB | Mrays/s 1 thread | Mrays/s all | first image ms | rel t err mean | max | silhouette px |\n|---|---|---|---|---|---|---|---|---|---|---|---|\n");
+    for r in rows {
+        s += &format!(
+            "| {} | {} | {} | {:.2} | {:.2} | {:.2} | {:.2} | {:.2} | {:.1} | {:.1e} | {:.1e} | {} |\n",
+            r.scene,
+            r.triangles,
+            r.method,
+            r.build_ms,
+            r.embree_bytes as f64 / 1e6,
+            r.own_bytes as f64 / 1e6,
+            r.mrays_1t,
+            r.mrays_all,
+            r.first_image_ms,
+            r.err_t_mean,
+            r.err_t_max,
+            r.silhouette_px
+        );
+    }
+    s
+}
+
+/// Error against time, log–log, one panel per scene: each method a labelled point at
+/// (ns per primary ray on one thread, mean relative t error; errors below 1e-9 drawn at 1e-9).
+pub fn plot(rows: &[BenchRow]) -> crate::render::Image {
+    use crate::render::text::draw_text;
+    let scenes: Vec<&str> = {
+        let mut v: Vec<&str> = rows.iter().map(|r| r.scene.as_str()).collect();
+        v.dedup();
+        v
+    };
+    let (pw, ph) = (720u32, 360u32);
+    let mut img = crate::render::Image::new(pw, ph * scenes.len().max(1) as u32);
+    for p in img.pixels.iter_mut() {
+        *p = Vec3::splat(1.0);
+    }
+    let black = Vec3::ZERO;
+    for (k, sc) in scenes.iter().enumerate() {
+        let y0 = k as u32 * ph;
+        let rs: Vec<&BenchRow> = rows.iter().filter(|r| r.scene == *sc).collect();
+        let xs: Vec<f64> = rs.iter().map(|r| (1e3 / r.mrays_1t.max(1e-9)).log10()).collect();
+        let ys: Vec<f64> = rs.iter().map(|r| r.err_t_mean.max(1e-9).log10()).collect();
+        let (xmin, xmax) = (xs.iter().cloned().fold(f64::MAX, f64::min).floor(), xs.iter().cloned().fold(f64::MIN, f64::max).ceil().max(xs.iter().cloned().fold(f64::MAX, f64::min).floor() + 1.0));
+        let (ymin, ymax) = (-9.0f64, ys.iter().cloned().fold(-8.0, f64::max).ceil());
+        let (l, r, t, b) = (70u32, pw - 20, y0 + 30, y0 + ph - 40);
+        let px = |x: f64| l as f64 + (x - xmin) / (xmax - xmin) * (r - l) as f64;
+        let py = |y: f64| b as f64 - (y - ymin) / (ymax - ymin) * (b - t) as f64;
+        for x in l..=r {
+            img.set(x, b, black);
+        }
+        for y in t..=b {
+            img.set(l, y, black);
+        }
+        let mut e = xmin;
+        while e <= xmax + 1e-9 {
+            let x = px(e) as u32;
+            for y in b..b + 4 {
+                img.set(x.min(pw - 1), y, black);
+            }
+            draw_text(&mut img, &format!("1e{}", e as i32), x.saturating_sub(12), b + 8, 1, black);
+            e += 1.0;
+        }
+        let mut e = ymin;
+        while e <= ymax + 1e-9 {
+            let y = py(e) as u32;
+            for x in l - 4..l {
+                img.set(x, y, black);
+            }
+            draw_text(&mut img, &format!("1e{}", e as i32), 20, y.saturating_sub(3), 1, black);
+            e += 1.0;
+        }
+        draw_text(&mut img, &format!("{sc}: mean rel t error vs ns per ray (1 thread)"), l, y0 + 8, 2, black);
+        for (i, row) in rs.iter().enumerate() {
+            let (x, y) = (px(xs[i]) as i64, py(ys[i]) as i64);
+            let c = if row.method.starts_with("direct") { Vec3::new(0.8, 0.1, 0.1) } else if row.method.starts_with("pretess") { Vec3::new(0.1, 0.3, 0.8) } else { Vec3::new(0.1, 0.6, 0.2) };
+            for dy in -3..=3i64 {
+                for dx in -3..=3i64 {
+                    let (xx, yy) = (x + dx, y + dy);
+                    if xx >= 0 && yy >= 0 && (xx as u32) < pw && (yy as u32) < img.height {
+                        img.set(xx as u32, yy as u32, c);
+                    }
+                }
+            }
+            draw_text(&mut img, &row.method, (x + 6).max(0) as u32, (y - 10 - 9 * (i as i64 % 2)).max(0) as u32, 1, black);
+        }
+    }
+    img
+}
