@@ -150,6 +150,25 @@ impl Default for GeometryOptions {
     }
 }
 
+/// A new Embree buffer holding a copy of `items`, with the 16 bytes of padding Embree asks for
+/// after the last element (the last float3 must be readable with a 16-byte load).
+fn new_buffer_from<T: Copy>(device: &Device, items: &[T]) -> Result<sys::RTCBuffer, EmbreeError> {
+    let bytes = std::mem::size_of_val(items);
+    // SAFETY: the device is live (held by `device`); rtcNewBuffer allocates `bytes + 16` bytes
+    // that rtcGetBufferData exposes for writing (rtcNewBuffer docs); we copy exactly `bytes`
+    // from a valid slice of plain `Copy` data (Vec3 and [u32; 3] are 12 bytes without padding).
+    unsafe {
+        let buf = sys::rtcNewBuffer(device.raw(), bytes + 16);
+        device.check()?;
+        if buf.is_null() {
+            return Err(EmbreeError::Null("buffer"));
+        }
+        let ptr = sys::rtcGetBufferData(buf) as *mut u8;
+        std::ptr::copy_nonoverlapping(items.as_ptr() as *const u8, ptr, bytes);
+        Ok(buf)
+    }
+}
+
 impl Scene {
     /// An empty scene on `device`.
     pub fn new(device: &Device) -> Result<Self, EmbreeError> {
@@ -217,51 +236,16 @@ impl Scene {
             )));
         }
         let device = self.device().clone();
-        // SAFETY: the device is live. Buffers are allocated by Embree with room for 16 bytes of
-        // padding after the last vertex (the docs require the last float3 to be readable with a
-        // 16-byte load), filled through the pointer rtcGetBufferData returns for exactly that
-        // many bytes, and bound before the geometry is committed (rtcSetGeometryBuffer docs).
+        let vbuf = new_buffer_from(&device, positions)?;
+        let ibuf = new_buffer_from(&device, indices)?;
+        // SAFETY: the device is live; both buffers hold the stated item counts (12-byte items)
+        // and are bound before the geometry is committed; our buffer references are released
+        // once bound (the geometry retains them) (rtcSetGeometryBuffer docs).
         let geom = unsafe {
             let geom = sys::rtcNewGeometry(device.raw(), sys::RTCGeometryType::RTC_GEOMETRY_TYPE_TRIANGLE);
-            device.check()?;
-            let vbytes = positions.len() * 12;
-            let vbuf = sys::rtcNewBuffer(device.raw(), vbytes + 16);
-            device.check()?;
-            let vptr = sys::rtcGetBufferData(vbuf) as *mut f32;
-            for (i, p) in positions.iter().enumerate() {
-                vptr.add(3 * i).write(p.x);
-                vptr.add(3 * i + 1).write(p.y);
-                vptr.add(3 * i + 2).write(p.z);
-            }
-            sys::rtcSetGeometryBuffer(
-                geom,
-                sys::RTCBufferType::RTC_BUFFER_TYPE_VERTEX,
-                0,
-                sys::RTCFormat::RTC_FORMAT_FLOAT3,
-                vbuf,
-                0,
-                12,
-                positions.len(),
-            );
+            sys::rtcSetGeometryBuffer(geom, sys::RTCBufferType::RTC_BUFFER_TYPE_VERTEX, 0, sys::RTCFormat::RTC_FORMAT_FLOAT3, vbuf, 0, 12, positions.len());
+            sys::rtcSetGeometryBuffer(geom, sys::RTCBufferType::RTC_BUFFER_TYPE_INDEX, 0, sys::RTCFormat::RTC_FORMAT_UINT3, ibuf, 0, 12, indices.len());
             sys::rtcReleaseBuffer(vbuf);
-            let ibuf = sys::rtcNewBuffer(device.raw(), indices.len() * 12 + 16);
-            device.check()?;
-            let iptr = sys::rtcGetBufferData(ibuf) as *mut u32;
-            for (i, t) in indices.iter().enumerate() {
-                for (k, &idx) in t.iter().enumerate() {
-                    iptr.add(3 * i + k).write(idx);
-                }
-            }
-            sys::rtcSetGeometryBuffer(
-                geom,
-                sys::RTCBufferType::RTC_BUFFER_TYPE_INDEX,
-                0,
-                sys::RTCFormat::RTC_FORMAT_UINT3,
-                ibuf,
-                0,
-                12,
-                indices.len(),
-            );
             sys::rtcReleaseBuffer(ibuf);
             sys::rtcSetGeometryMask(geom, options.mask);
             sys::rtcCommitGeometry(geom);
@@ -287,41 +271,20 @@ impl Scene {
             return Err(EmbreeError::Invalid(format!("tessellation rate {tessellation_rate} is not >= 1")));
         }
         let device = self.device().clone();
-        // SAFETY: as in `attach_triangles`: Embree-allocated buffers (with 16 bytes of padding),
-        // written within their sizes through rtcGetBufferData, bound before commit; the face
-        // buffer holds one u32 (3) per face and the index buffer one u32 per corner, as
-        // RTC_GEOMETRY_TYPE_SUBDIVISION requires (rtcNewGeometry docs, "Subdivision geometry").
+        let vbuf = new_buffer_from(&device, positions)?;
+        let ibuf = new_buffer_from(&device, indices)?;
+        let fbuf = new_buffer_from(&device, &vec![3u32; indices.len()])?;
+        // SAFETY: as in `attach_triangles`; the face buffer holds one u32 (3) per face and the
+        // index buffer one u32 per corner, as RTC_GEOMETRY_TYPE_SUBDIVISION requires
+        // (rtcNewGeometry docs, "Subdivision geometry").
         let geom = unsafe {
             let geom = sys::rtcNewGeometry(device.raw(), sys::RTCGeometryType::RTC_GEOMETRY_TYPE_SUBDIVISION);
-            device.check()?;
-            let vbuf = sys::rtcNewBuffer(device.raw(), positions.len() * 12 + 16);
-            device.check()?;
-            let vptr = sys::rtcGetBufferData(vbuf) as *mut f32;
-            for (i, p) in positions.iter().enumerate() {
-                vptr.add(3 * i).write(p.x);
-                vptr.add(3 * i + 1).write(p.y);
-                vptr.add(3 * i + 2).write(p.z);
-            }
             sys::rtcSetGeometryBuffer(geom, sys::RTCBufferType::RTC_BUFFER_TYPE_VERTEX, 0, sys::RTCFormat::RTC_FORMAT_FLOAT3, vbuf, 0, 12, positions.len());
-            sys::rtcReleaseBuffer(vbuf);
-            let ibuf = sys::rtcNewBuffer(device.raw(), indices.len() * 12 + 16);
-            device.check()?;
-            let iptr = sys::rtcGetBufferData(ibuf) as *mut u32;
-            for (i, t) in indices.iter().enumerate() {
-                for (k, &idx) in t.iter().enumerate() {
-                    iptr.add(3 * i + k).write(idx);
-                }
-            }
             sys::rtcSetGeometryBuffer(geom, sys::RTCBufferType::RTC_BUFFER_TYPE_INDEX, 0, sys::RTCFormat::RTC_FORMAT_UINT, ibuf, 0, 4, indices.len() * 3);
-            sys::rtcReleaseBuffer(ibuf);
-            let fbuf = sys::rtcNewBuffer(device.raw(), indices.len() * 4 + 16);
-            device.check()?;
-            let fptr = sys::rtcGetBufferData(fbuf) as *mut u32;
-            for i in 0..indices.len() {
-                fptr.add(i).write(3);
-            }
             sys::rtcSetGeometryBuffer(geom, sys::RTCBufferType::RTC_BUFFER_TYPE_FACE, 0, sys::RTCFormat::RTC_FORMAT_UINT, fbuf, 0, 4, indices.len());
-            sys::rtcReleaseBuffer(fbuf);
+            for b in [vbuf, ibuf, fbuf] {
+                sys::rtcReleaseBuffer(b);
+            }
             sys::rtcSetGeometryTessellationRate(geom, tessellation_rate);
             sys::rtcCommitGeometry(geom);
             geom
