@@ -125,12 +125,12 @@ pub fn solve_cubic<T: Real>(c3: T, c2: T, c1: T, c0: T) -> ([T; 3], usize) {
     if r * r < q * q * q {
         // Three real roots (trigonometric form).
         let sq = q.sqrt();
-        let theta = T::from_f64((r / (sq * sq * sq)).to_f64().clamp(-1.0, 1.0).acos());
+        let theta = (r / (sq * sq * sq)).max(-T::ONE).min(T::ONE).acos();
         let m = T::from_f64(-2.0) * sq;
         let tau = T::from_f64(2.0 * std::f64::consts::PI);
         for (k, root) in roots.iter_mut().enumerate() {
             let ang = (theta + tau * T::from_f64(k as f64)) * third;
-            *root = m * T::from_f64(ang.to_f64().cos()) - a * third;
+            *root = m * ang.cos() - a * third;
         }
         n = 3;
     } else {
@@ -478,7 +478,7 @@ fn analytic_local<T: Real>(p: &Patch<T>, o: V3<T>, d: V3<T>, tmin: T, tmax: T, p
                 }
                 let unpolished = (u, v, t);
                 if polish {
-                    for _ in 0..2 {
+                    for _ in 0..1 {
                         match newton_step(p, o, d, u, v, t) {
                             Some((a, b, c)) => {
                                 u = a;

@@ -25,6 +25,8 @@ pub trait Real:
     fn sqrt(self) -> Self;
     fn abs(self) -> Self;
     fn cbrt(self) -> Self;
+    fn acos(self) -> Self;
+    fn cos(self) -> Self;
     fn is_finite(self) -> bool;
     fn mul_add(self, a: Self, b: Self) -> Self;
     fn max(self, o: Self) -> Self {
@@ -69,6 +71,14 @@ macro_rules! impl_real {
             #[inline(always)]
             fn cbrt(self) -> Self {
                 <$t>::cbrt(self)
+            }
+            #[inline(always)]
+            fn acos(self) -> Self {
+                <$t>::acos(self)
+            }
+            #[inline(always)]
+            fn cos(self) -> Self {
+                <$t>::cos(self)
             }
             #[inline(always)]
             fn is_finite(self) -> bool {
