@@ -334,3 +334,54 @@ proptest! {
         }
     }
 }
+
+proptest! {
+    #![proptest_config(ProptestConfig { cases: 300, .. ProptestConfig::default() })]
+
+    /// The exact range of a quadratic over the triangle contains every sampled value and is
+    /// attained (within sampling) — it is what the patch bounds and prism are built from.
+    #[test]
+    fn quadratic_range_is_exact(k in proptest::array::uniform6(-10.0f64..10.0)) {
+        let (lo, hi) = phongrt::phong::patch::quadratic_range(k);
+        let q = |u: f64, v: f64| k[0] * u * u + k[1] * v * v + k[2] * u * v + k[3] * u + k[4] * v + k[5];
+        let (mut slo, mut shi) = (f64::INFINITY, f64::NEG_INFINITY);
+        let n = 200;
+        for i in 0..=n {
+            for j in 0..=(n - i) {
+                let x = q(i as f64 / n as f64, j as f64 / n as f64);
+                slo = slo.min(x);
+                shi = shi.max(x);
+            }
+        }
+        let tol = 1e-12 * (1.0 + k.iter().fold(0.0f64, |m, x| m.max(x.abs())));
+        prop_assert!(lo <= slo + tol && hi >= shi - tol, "range {lo}..{hi} misses samples {slo}..{shi}");
+        // Attained: a 200-step grid comes within (step)² · |second derivatives| of the extremes.
+        let grid = 60.0 / (n * n) as f64;
+        prop_assert!(slo - lo <= grid && hi - shi <= grid, "range {lo}..{hi} wider than samples {slo}..{shi}");
+    }
+
+    /// Every point of a patch (any curvature, α, scale) lies inside its world bounds and its
+    /// local prism: Embree never culls a ray that would hit it.
+    #[test]
+    fn bounds_and_prism_contain_the_patch(seed in 0u64..1_000_000, scale in log_uniform(1e-4, 1e5)) {
+        let mut rng = SplitMix(seed);
+        let cat = [Category::RandomCurved, Category::StronglyCurved, Category::NearFlat][(seed % 3) as usize];
+        let c = generate(&mut rng, cat);
+        let shift = rng.unit() * scale * 10.0;
+        let p: Patch<f32> = Patch::new(c.p.map(|q| q * scale + shift), c.n, c.alpha);
+        let (lo, hi) = p.bounds();
+        let n = 24;
+        for i in 0..=n {
+            for j in 0..=(n - i) {
+                let (u, v) = (i as f32 / n as f32, j as f32 / n as f32);
+                let x = p.eval(u, v);
+                prop_assert!(x.x >= lo.x && x.y >= lo.y && x.z >= lo.z && x.x <= hi.x && x.y <= hi.y && x.z <= hi.z,
+                    "point {x:?} at ({u}, {v}) outside {lo:?}..{hi:?}");
+                let xl = p.eval_local(u, v);
+                for k in 0..5 {
+                    prop_assert!(p.prism_n[k].dot(xl) <= p.prism_h[k], "point at ({u}, {v}) outside prism plane {k}");
+                }
+            }
+        }
+    }
+}

@@ -30,7 +30,7 @@ pub struct Patch<T> {
     pub f: V3<T>,
     /// Unit vertex normals (for shading).
     pub n: [V3<T>; 3],
-    /// Conservative local-frame bounds (hull of the 6 control points, padded).
+    /// Conservative local-frame bounds (the exact range of each coordinate over the domain, padded).
     pub lo: V3<T>,
     pub hi: V3<T>,
     /// A tighter conservative hull (local frame): the prism of 5 half-spaces `n_k · x <= h_k`:
@@ -56,6 +56,49 @@ pub fn control_points(p: [V3<f64>; 3], n: [V3<f64>; 3], alpha: f64, straight: [b
     };
     // Edge k runs from corner k to corner k+1: 0 = (p0,p1), 1 = (p1,p2), 2 = (p2,p0).
     [p[0], p[1], p[2], edge(0, 1, 0), edge(1, 2, 1), edge(2, 0, 2)]
+}
+
+/// The exact range `(min, max)` over the triangle `u, v >= 0, u + v <= 1` of the quadratic
+/// `q(u,v) = k0 u² + k1 v² + k2 uv + k3 u + k4 v + k5`: the extremes lie at a corner, at the
+/// stationary point of an edge, or at the interior stationary point (Ogaki & Tokuyoshi 2011
+/// bound a patch's thickness the same way, at its `(û, v̂)`).
+pub fn quadratic_range(k: [f64; 6]) -> (f64, f64) {
+    let [a, b, c, d, e, f] = k;
+    let q = |u: f64, v: f64| a * u * u + b * v * v + c * u * v + d * u + e * v + f;
+    let (mut lo, mut hi) = (f64::INFINITY, f64::NEG_INFINITY);
+    let mut take = |u: f64, v: f64| {
+        let x = q(u, v);
+        lo = lo.min(x);
+        hi = hi.max(x);
+    };
+    take(0.0, 0.0);
+    take(1.0, 0.0);
+    take(0.0, 1.0);
+    let on = |s: f64| s > 0.0 && s < 1.0;
+    // Edge v = 0: a u² + d u + f.
+    if a != 0.0 && on(-d / (2.0 * a)) {
+        take(-d / (2.0 * a), 0.0);
+    }
+    // Edge u = 0: b v² + e v + f.
+    if b != 0.0 && on(-e / (2.0 * b)) {
+        take(0.0, -e / (2.0 * b));
+    }
+    // Edge u + v = 1: (a + b - c) u² + (c + d - e - 2b) u + (b + e + f).
+    let (a2, b2) = (a + b - c, c + d - e - 2.0 * b);
+    if a2 != 0.0 && on(-b2 / (2.0 * a2)) {
+        let u = -b2 / (2.0 * a2);
+        take(u, 1.0 - u);
+    }
+    // Interior: [2a c; c 2b] (u, v) = -(d, e).
+    let det = 4.0 * a * b - c * c;
+    if det != 0.0 {
+        let u = (-d * 2.0 * b + c * e) / det;
+        let v = (-2.0 * a * e + c * d) / det;
+        if u > 0.0 && v > 0.0 && u + v < 1.0 {
+            take(u, v);
+        }
+    }
+    (lo, hi)
 }
 
 impl<T: Real> Patch<T> {
@@ -90,21 +133,23 @@ impl<T: Real> Patch<T> {
         let d = (p01 - p0) * 2.0;
         let e = (p20 - p0) * 2.0;
         let f = p0;
-        let mut lo = q[0];
-        let mut hi = q[0];
-        for x in &q[1..] {
-            lo = lo.min_elem(*x);
-            hi = hi.max_elem(*x);
-        }
+        // The exact range of each linear functional `n · P(u, v)` over the domain (each is a
+        // quadratic in (u, v)): tighter than the hull of the control points, which lies up to
+        // twice as far from the base triangle as the surface does.
+        let range = |n: V3<f64>| quadratic_range([n.dot(a), n.dot(b), n.dot(c), n.dot(d), n.dot(e), n.dot(f)]);
+        let (x, y, z) = (range(V3::new(1.0, 0.0, 0.0)), range(V3::new(0.0, 1.0, 0.0)), range(V3::new(0.0, 0.0, 1.0)));
+        let mut lo = V3::new(x.0, y.0, z.0);
+        let mut hi = V3::new(x.1, y.1, z.1);
         // Pad by the rounding of the control points and their cast to T (relative to the
         // local frame, whose extent is about 1).
         let pad = T::gamma(8).to_f64() * 4.0 + f64::EPSILON * 16.0;
-        // The prism (Ogaki & Tokuyoshi 2011 bound the patch by its thickness and edge side drops;
-        // this is the same idea taken over the control points, so it is conservative).
+        // The prism (Ogaki & Tokuyoshi 2011 bound the patch by its thickness and edge side drops):
+        // the face normal both ways and the three outward edge normals, each offset the exact
+        // maximum of the surface along it.
         let fnorm = (q[1] - q[0]).cross(q[2] - q[0]).normalized().unwrap_or(V3::new(0.0, 0.0, 1.0));
         let edge_out = |a: V3<f64>, b: V3<f64>| (b - a).cross(fnorm).normalized().unwrap_or(fnorm);
         let prism_n = [fnorm, -fnorm, edge_out(q[0], q[1]), edge_out(q[1], q[2]), edge_out(q[2], q[0])];
-        let prism_h = prism_n.map(|n| q.iter().map(|x| n.dot(*x)).fold(f64::NEG_INFINITY, f64::max) + pad);
+        let prism_h = prism_n.map(|n| range(n).1 + pad);
         lo = lo - V3::new(pad, pad, pad);
         hi = hi + V3::new(pad, pad, pad);
         Patch {
