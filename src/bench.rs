@@ -142,6 +142,13 @@ pub fn pretessellate(m: &Mesh, alpha: f64, level: u32) -> (Vec<Vec3>, Vec<[u32; 
 /// ~100 bytes per triangle).
 pub const MAX_PRETESSELLATED_TRIANGLES: u64 = 20_000_000;
 
+/// The largest control mesh given to Embree's Catmull–Clark subdivision (measured ~2 kB of BVH
+/// per face at rate 8: 76 MB for 36 480 faces).
+pub const MAX_SUBDIVISION_FACES: usize = 300_000;
+
+/// Samples per pixel of the shaded render (a 2×2 stratified grid).
+pub const SHADED_SPP: u32 = 4;
+
 /// One method on one scene.
 #[derive(Clone, Debug)]
 pub struct BenchRow {
@@ -159,6 +166,9 @@ pub struct BenchRow {
     pub err_t_max: f64,
     /// Pixels hit by one and not the other.
     pub silhouette_px: usize,
+    /// A full shaded render on all cores: `SHADED_SPP` samples per pixel, one shadow ray per
+    /// hit towards a directional light, Lambert on the geometric normal.
+    pub shaded_ms: f64,
 }
 
 fn build(device: &Device, m: &Mesh, method: BenchMethod) -> anyhow::Result<(Scene, usize)> {
@@ -203,6 +213,45 @@ fn build(device: &Device, m: &Mesh, method: BenchMethod) -> anyhow::Result<(Scen
     Ok((s, own))
 }
 
+/// The shaded render of `shaded_ms`: returns the summed radiance (so the work is not optimised
+/// away, and as a cross-check between methods).
+fn shaded(scene: &Scene, frame: &crate::render::CameraFrame, width: u32, height: u32, light: Vec3) -> f64 {
+    use crate::render::world::{gamma, SurfacePoint};
+    let row = |y: u32| -> f64 {
+        let mut sum = 0.0f64;
+        for x in 0..width {
+            for s in 0..SHADED_SPP {
+                let (ox, oy) = crate::render::sample_offset(x, y, s, SHADED_SPP, 0);
+                let ray = Ray::new(frame.eye, frame.direction(x as f32 + ox, y as f32 + oy, width, height));
+                let Some(h) = scene.intersect1(ray) else { continue };
+                let Some(mut n) = h.ng.try_normalize() else { continue };
+                if n.dot(ray.dir) > 0.0 {
+                    n = -n;
+                }
+                let cos = n.dot(light);
+                if cos <= 0.0 {
+                    continue;
+                }
+                // Offset the shadow ray's origin by the hit point's error bound along the normal
+                // (pbrt-v4's OffsetRayOrigin with the renderer's fallback bound for o + t d).
+                let sp = SurfacePoint {
+                    p: ray.at(h.t),
+                    p_error: gamma(7) * (ray.org.abs() + (h.t * ray.dir).abs()),
+                    ng: n,
+                    n,
+                    entering: true,
+                    smooth_terminator: false,
+                };
+                if !scene.occluded1(Ray::new(sp.offset_origin(light), light)) {
+                    sum += cos as f64;
+                }
+            }
+        }
+        sum
+    };
+    (0..height).into_par_iter().map(row).sum()
+}
+
 fn depth(scene: &Scene, rays: &[Ray], parallel: bool) -> Vec<Option<f32>> {
     if parallel {
         rays.par_iter().map(|r| scene.intersect1(*r).map(|h| h.t)).collect()
@@ -237,6 +286,10 @@ pub fn bench_scene(name: &str, m: &Mesh, methods: &[BenchMethod], width: u32, he
                 continue;
             }
         }
+        if method == BenchMethod::Subdivision && m.indices.len() > MAX_SUBDIVISION_FACES {
+            progress(&format!("{name}: {} skipped: {} faces exceed the budget of {MAX_SUBDIVISION_FACES}", method.name(), m.indices.len()));
+            continue;
+        }
         let before = device.memory_bytes().0;
         let t0 = Instant::now();
         let (scene, own) = build(&device, m, method)?;
@@ -249,6 +302,10 @@ pub fn bench_scene(name: &str, m: &Mesh, methods: &[BenchMethod], width: u32, he
         let d_one = depth(&scene, &rays, false);
         let one_s = t2.elapsed().as_secs_f64();
         debug_assert_eq!(d_all, d_one);
+        let light = (frame.up.normalize_or_zero() * 0.8 - frame.right.normalize_or_zero() * 0.5 - frame.forward * 0.6).normalize();
+        let t3 = Instant::now();
+        let _radiance = std::hint::black_box(shaded(&scene, &frame, width, height, light));
+        let shaded_ms = t3.elapsed().as_secs_f64() * 1e3;
         let (mut sum, mut max, mut n, mut sil) = (0.0f64, 0.0f64, 0usize, 0usize);
         for (a, r) in d_one.iter().zip(&reference) {
             match (a, r) {
@@ -275,6 +332,7 @@ pub fn bench_scene(name: &str, m: &Mesh, methods: &[BenchMethod], width: u32, he
             err_t_mean: if n > 0 { sum / n as f64 } else { 0.0 },
             err_t_max: max,
             silhouette_px: sil,
+            shaded_ms,
         });
         drop(scene);
     }
@@ -283,22 +341,28 @@ pub fn bench_scene(name: &str, m: &Mesh, methods: &[BenchMethod], width: u32, he
 
 /// CSV with a header line.
 pub fn to_csv(rows: &[BenchRow]) -> String {
-    let mut s = String::from("scene,triangles,method,build_ms,embree_bytes,own_bytes,mrays_1t,mrays_all,first_image_ms,err_t_mean,err_t_max,silhouette_px\n");
+    let mut s = String::from("scene,triangles,method,build_ms,embree_bytes,own_bytes,mrays_1t,mrays_all,first_image_ms,err_t_mean,err_t_max,silhouette_px,shaded_ms\n");
     for r in rows {
         s += &format!(
-            "{},{},{},{:.3},{},{},{:.3},{:.3},{:.3},{:.3e},{:.3e},{}\n",
-            r.scene, r.triangles, r.method, r.build_ms, r.embree_bytes, r.own_bytes, r.mrays_1t, r.mrays_all, r.first_image_ms, r.err_t_mean, r.err_t_max, r.silhouette_px
+            "{},{},{},{:.3},{},{},{:.3},{:.3},{:.3},{:.3e},{:.3e},{},{:.3}\n",
+            r.scene, r.triangles, r.method, r.build_ms, r.embree_bytes, r.own_bytes, r.mrays_1t, r.mrays_all, r.first_image_ms, r.err_t_mean, r.err_t_max, r.silhouette_px, r.shaded_ms
         );
     }
     s
 }
 
-/// A markdown table.
+/// The row of `method` on `scene`.
+fn find<'a>(rows: &'a [BenchRow], scene: &str, method: &str) -> Option<&'a BenchRow> {
+    rows.iter().find(|r| r.scene == scene && r.method == method)
+}
+
+/// A markdown table; ratios are against flat on the same scene.
 pub fn to_markdown(rows: &[BenchRow]) -> String {
-    let mut s = String::from("| scene | tris | method | build ms | Embree MB | own MB | Mrays/s 1 thread | Mrays/s all | first image ms | rel t err mean | max | silhouette px |\n|---|---|---|---|---|---|---|---|---|---|---|---|\n");
+    let mut s = String::from("| scene | tris | method | build ms | Embree MB | own MB | Mrays/s 1 thread | Mrays/s all | first image ms | rel t err mean | max | silhouette px | shaded ms | shaded × flat |\n|---|---|---|---|---|---|---|---|---|---|---|---|---|---|\n");
     for r in rows {
+        let ratio = find(rows, &r.scene, "flat").map_or(f64::NAN, |f| r.shaded_ms / f.shaded_ms.max(1e-9));
         s += &format!(
-            "| {} | {} | {} | {:.2} | {:.2} | {:.2} | {:.2} | {:.2} | {:.1} | {:.1e} | {:.1e} | {} |\n",
+            "| {} | {} | {} | {:.2} | {:.2} | {:.2} | {:.2} | {:.2} | {:.1} | {:.1e} | {:.1e} | {} | {:.1} | {:.2} |\n",
             r.scene,
             r.triangles,
             r.method,
@@ -310,10 +374,66 @@ pub fn to_markdown(rows: &[BenchRow]) -> String {
             r.first_image_ms,
             r.err_t_mean,
             r.err_t_max,
-            r.silhouette_px
+            r.silhouette_px,
+            r.shaded_ms,
+            ratio
         );
     }
     s
+}
+
+/// Bytes a method holds: Embree's (memory monitor) plus our own.
+fn bytes(r: &BenchRow) -> f64 {
+    r.embree_bytes.max(0) as f64 + r.own_bytes as f64
+}
+
+/// Per scene: the pre-tessellation that first matches direct Phong's silhouette (no more
+/// mismatched pixels than direct f32 against the f64 reference), its memory against direct's,
+/// and whether it fits in `mem_total` bytes. A level beyond the build budget is estimated from
+/// the bytes per triangle of the largest level built.
+pub fn equal_silhouette_summary(rows: &[BenchRow], mem_total: Option<u64>) -> String {
+    let mut scenes: Vec<&str> = rows.iter().map(|r| r.scene.as_str()).collect();
+    scenes.dedup();
+    let mut out = String::from("| scene | direct f32 MB | equal-silhouette pre-tessellation | its MB | × direct | fits in RAM |\n|---|---|---|---|---|---|\n");
+    for sc in scenes {
+        let Some(direct) = find(rows, sc, "direct-f32") else { continue };
+        let tris = direct.triangles as f64;
+        let levels: Vec<(u32, &BenchRow)> = [1u32, 2, 4, 8, 16, 32, 64, 128, 256]
+            .iter()
+            .filter_map(|l| find(rows, sc, &format!("pretess-{l}")).map(|r| (*l, r)))
+            .collect();
+        let (level, mb, measured) = match levels.iter().find(|(_, r)| r.silhouette_px <= direct.silhouette_px) {
+            Some((l, r)) => (*l, bytes(r) / 1e6, true),
+            None => {
+                // Not reached within the budget: the next level up, at the largest built
+                // level's bytes per triangle (which only falls slowly with size).
+                let Some((l, r)) = levels.last() else { continue };
+                let per_tri = bytes(r) / (tris * (*l as f64).powi(2));
+                let next = l * 2;
+                (next, per_tri * tris * (next as f64).powi(2) / 1e6, false)
+            }
+        };
+        let direct_mb = bytes(direct) / 1e6;
+        let fits = match mem_total {
+            Some(m) => if mb * 1e6 < m as f64 { "yes" } else { "**no**" },
+            None => "?",
+        };
+        out += &format!(
+            "| {sc} | {direct_mb:.2} | level {level}{} | {mb:.1}{} | {:.0} | {fits} |\n",
+            if measured { "" } else { " or finer (not built)" },
+            if measured { "" } else { " or more (estimated)" },
+            mb / direct_mb.max(1e-9)
+        );
+    }
+    out
+}
+
+/// Total physical memory, from `/proc/meminfo` (Linux), in bytes.
+pub fn mem_total() -> Option<u64> {
+    let s = std::fs::read_to_string("/proc/meminfo").ok()?;
+    let line = s.lines().find(|l| l.starts_with("MemTotal:"))?;
+    let kb: u64 = line.split_whitespace().nth(1)?.parse().ok()?;
+    Some(kb * 1024)
 }
 
 /// Error against time, log–log, one panel per scene: each method a labelled point at
@@ -378,6 +498,114 @@ pub fn plot(rows: &[BenchRow]) -> crate::render::Image {
                 }
             }
             draw_text(&mut img, &row.method, (x + 6).max(0) as u32, (y - 10 - 9 * (i as i64 % 2)).max(0) as u32, 1, black);
+        }
+    }
+    img
+}
+
+/// Build time and memory against scene size, log–log: two panels, one line per method through
+/// its scenes in order of triangle count.
+pub fn plot_scaling(rows: &[BenchRow]) -> crate::render::Image {
+    use crate::render::text::draw_text;
+    let (pw, ph) = (720u32, 380u32);
+    let mut img = crate::render::Image::new(pw, ph * 2);
+    for p in img.pixels.iter_mut() {
+        *p = Vec3::splat(1.0);
+    }
+    let black = Vec3::ZERO;
+    let mut methods: Vec<&str> = Vec::new();
+    for r in rows {
+        if !methods.contains(&r.method.as_str()) {
+            methods.push(&r.method);
+        }
+    }
+    let colour = |i: usize| {
+        // Distinct hues around the colour wheel.
+        let h = i as f32 / methods.len().max(1) as f32 * 6.0;
+        let x = 1.0 - ((h % 2.0) - 1.0).abs();
+        let (r, g, b) = match h as u32 {
+            0 => (1.0, x, 0.0),
+            1 => (x, 1.0, 0.0),
+            2 => (0.0, 1.0, x),
+            3 => (0.0, x, 1.0),
+            4 => (x, 0.0, 1.0),
+            _ => (1.0, 0.0, x),
+        };
+        Vec3::new(r, g, b) * 0.8
+    };
+    let panels: [(&str, fn(&BenchRow) -> f64); 2] =
+        [("BVH build ms vs triangles", |r| r.build_ms), ("memory MB (Embree + own) vs triangles", |r| bytes(r) / 1e6)];
+    for (k, (title, metric)) in panels.iter().enumerate() {
+        let y0 = k as u32 * ph;
+        let pts: Vec<(f64, f64)> = rows.iter().map(|r| ((r.triangles as f64).log10(), metric(r).max(1e-3).log10())).collect();
+        if pts.is_empty() {
+            continue;
+        }
+        let xmin = pts.iter().map(|p| p.0).fold(f64::MAX, f64::min).floor();
+        let xmax = pts.iter().map(|p| p.0).fold(f64::MIN, f64::max).ceil().max(xmin + 1.0);
+        let ymin = pts.iter().map(|p| p.1).fold(f64::MAX, f64::min).floor();
+        let ymax = pts.iter().map(|p| p.1).fold(f64::MIN, f64::max).ceil().max(ymin + 1.0);
+        let (l, r, t, b) = (70u32, pw - 150, y0 + 30, y0 + ph - 40);
+        let px = |x: f64| l as f64 + (x - xmin) / (xmax - xmin) * (r - l) as f64;
+        let py = |y: f64| b as f64 - (y - ymin) / (ymax - ymin) * (b - t) as f64;
+        for x in l..=r {
+            img.set(x, b, black);
+        }
+        for y in t..=b {
+            img.set(l, y, black);
+        }
+        let mut e = xmin;
+        while e <= xmax + 1e-9 {
+            let x = px(e) as u32;
+            for y in b..b + 4 {
+                img.set(x.min(pw - 1), y, black);
+            }
+            draw_text(&mut img, &format!("1e{}", e as i32), x.saturating_sub(12), b + 8, 1, black);
+            e += 1.0;
+        }
+        let mut e = ymin;
+        while e <= ymax + 1e-9 {
+            let y = py(e) as u32;
+            for x in l - 4..l {
+                img.set(x, y, black);
+            }
+            draw_text(&mut img, &format!("1e{}", e as i32), 20, y.saturating_sub(3), 1, black);
+            e += 1.0;
+        }
+        draw_text(&mut img, title, l, y0 + 8, 2, black);
+        for (mi, m) in methods.iter().enumerate() {
+            let c = colour(mi);
+            let mut series: Vec<(f64, f64)> = rows.iter().zip(&pts).filter(|(r, _)| r.method == *m).map(|(_, p)| *p).collect();
+            series.sort_by(|a, b| a.0.total_cmp(&b.0));
+            let to_px = |p: (f64, f64)| (px(p.0), py(p.1));
+            for w in series.windows(2) {
+                let ((x0, y0p), (x1, y1p)) = (to_px(w[0]), to_px(w[1]));
+                let steps = ((x1 - x0).abs().max((y1p - y0p).abs()) as usize).max(1);
+                for sidx in 0..=steps {
+                    let f = sidx as f64 / steps as f64;
+                    let (x, y) = (x0 + (x1 - x0) * f, y0p + (y1p - y0p) * f);
+                    if x >= 0.0 && y >= 0.0 && (x as u32) < pw && (y as u32) < img.height {
+                        img.set(x as u32, y as u32, c);
+                    }
+                }
+            }
+            for p in &series {
+                let (x, y) = to_px(*p);
+                for dy in -2..=2i64 {
+                    for dx in -2..=2i64 {
+                        let (xx, yy) = (x as i64 + dx, y as i64 + dy);
+                        if xx >= 0 && yy >= 0 && (xx as u32) < pw && (yy as u32) < img.height {
+                            img.set(xx as u32, yy as u32, c);
+                        }
+                    }
+                }
+            }
+            // Legend on the right.
+            let ly = y0 + 34 + 12 * mi as u32;
+            for x in r + 12..r + 24 {
+                img.set(x, ly + 3, c);
+            }
+            draw_text(&mut img, m, r + 28, ly, 1, black);
         }
     }
     img

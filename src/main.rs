@@ -252,7 +252,7 @@ fn apply_scene_file(world: &mut World, sf: &SceneFile) {
 }
 
 fn bench_cmd(args: cli::BenchArgs) -> anyhow::Result<()> {
-    use phongrt::bench::{bench_scene, plot, to_csv, to_markdown, BenchMethod};
+    use phongrt::bench::{bench_scene, equal_silhouette_summary, mem_total, plot, plot_scaling, to_csv, to_markdown, BenchMethod};
     anyhow::ensure!(args.size >= 8 && args.size <= 4096, "--size {} is not in 8..=4096", args.size);
     let methods: Vec<BenchMethod> = BenchMethod::all()
         .into_iter()
@@ -288,12 +288,19 @@ fn bench_cmd(args: cli::BenchArgs) -> anyhow::Result<()> {
         })?);
     }
     bar.finish_and_clear();
-    let md = to_markdown(&rows);
+    let mem = mem_total();
+    let md = format!(
+        "{}\nPre-tessellation that matches direct Phong's silhouette ({} GB of RAM here):\n\n{}",
+        to_markdown(&rows),
+        mem.map_or("?".to_string(), |m| format!("{:.1}", m as f64 / 1e9)),
+        equal_silhouette_summary(&rows, mem)
+    );
     std::fs::write(args.out.join("bench.csv"), to_csv(&rows))?;
     std::fs::write(args.out.join("bench.md"), &md)?;
     plot(&rows).save(&args.out.join("bench.png"))?;
+    plot_scaling(&rows).save(&args.out.join("bench-scaling.png"))?;
     print!("{md}");
-    eprintln!("phongrt: wrote {}/bench.csv, bench.md, bench.png", args.out.display());
+    eprintln!("phongrt: wrote {}/bench.csv, bench.md, bench.png, bench-scaling.png", args.out.display());
     Ok(())
 }
 

@@ -143,6 +143,11 @@ fn bench_writes_csv_table_and_plot() {
     let csv = std::fs::read_to_string(dir.path().join("bench.csv")).unwrap();
     assert_eq!(csv.lines().count(), 1 + 1 + 2 + 5, "{csv}");
     // The f64 direct render is the reference: zero error against itself.
-    assert!(csv.lines().any(|l| l.contains(",direct-f64,") && l.ends_with(",0.000e0,0.000e0,0")), "{csv}");
+    assert!(csv.lines().any(|l| l.contains(",direct-f64,") && l.contains(",0.000e0,0.000e0,0,")), "{csv}");
+    // Every row has a positive shaded-render time (the last column).
+    assert!(csv.lines().skip(1).all(|l| l.rsplit(',').next().and_then(|x| x.parse::<f64>().ok()).is_some_and(|x| x > 0.0)), "{csv}");
+    let md = std::fs::read_to_string(dir.path().join("bench.md")).unwrap();
+    assert!(md.contains("equal-silhouette pre-tessellation") && md.contains("| sphere-"), "{md}");
     assert!(image::open(dir.path().join("bench.png")).is_ok());
+    assert!(image::open(dir.path().join("bench-scaling.png")).is_ok());
 }
