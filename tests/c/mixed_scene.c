@@ -52,7 +52,7 @@ int main(void) {
   rtcCommitScene(child);
 
   /* Top scene: a native ground quad (2 triangles at y = -6, below every ray origin), the Phong octahedron at the origin,
-     and an instance of the child translated to x = 5. */
+     and an instance of the child translated to x = 8 (clear of every other ray, and of the origins at distance 4). */
   RTCScene scene = rtcNewScene(device);
   RTCGeometry ground = rtcNewGeometry(device, RTC_GEOMETRY_TYPE_TRIANGLE);
   float* gv = (float*)rtcSetNewGeometryBuffer(ground, RTC_BUFFER_TYPE_VERTEX, 0, RTC_FORMAT_FLOAT3, 3 * sizeof(float), 4);
@@ -71,7 +71,7 @@ int main(void) {
 
   RTCGeometry inst = rtcNewGeometry(device, RTC_GEOMETRY_TYPE_INSTANCE);
   rtcSetGeometryInstancedScene(inst, child);
-  const float xfm[12] = {1, 0, 0, 0, 1, 0, 0, 0, 1, 5, 0, 0}; /* 3x4 column major */
+  const float xfm[12] = {1, 0, 0, 0, 1, 0, 0, 0, 1, 8, 0, 0}; /* 3x4 column major */
   rtcSetGeometryTransform(inst, 0, RTC_FORMAT_FLOAT3X4_COLUMN_MAJOR, xfm);
   rtcCommitGeometry(inst);
   unsigned inst_id = rtcAttachGeometry(scene, inst);
@@ -124,7 +124,7 @@ int main(void) {
   /* 3. The instance: same hit, reported with instID. */
   {
     struct RTCRayHit rh;
-    ray_init(&rh, 5.0f, 4.0f, 0.0f, 0.0f, -1.0f, 0.0f);
+    ray_init(&rh, 8.0f, 4.0f, 0.0f, 0.0f, -1.0f, 0.0f);
     rtcIntersect1(scene, &rh, NULL);
     CHECK(rh.hit.instID[0] == inst_id && rh.hit.geomID == child_geom, "instance: inst %u geom %u", rh.hit.instID[0], rh.hit.geomID);
     CHECK(fabsf(rh.ray.tfar - 3.0f) < 1e-4f, "instance: t = %f", rh.ray.tfar);
