@@ -136,7 +136,7 @@ fn alpha_zero_matches_embree_triangles_on_a_real_mesh_for_a_million_rays() {
 
 #[test]
 fn embree_path_matches_the_pure_rust_intersector() {
-    use phongrt::phong::{intersect, Method, V3};
+    use phongrt::phong::{intersect, V3};
     let device = Device::new().unwrap();
     let mesh = uv_sphere(12, 6, 1.0);
     let scene = phong_scene(&device, &mesh, 1.0, true);
@@ -150,7 +150,7 @@ fn embree_path_matches_the_pure_rust_intersector() {
             .patches
             .iter()
             .enumerate()
-            .filter_map(|(i, p)| intersect(p, V3::from(o), V3::from(d), 0.0, f32::INFINITY, Method::AnalyticPolished).map(|h| (i as u32, h)))
+            .filter_map(|(i, p)| intersect(p, V3::from(o), V3::from(d), 0.0, f32::INFINITY, pm.method).map(|h| (i as u32, h)))
             .min_by(|a, b| a.1.t.partial_cmp(&b.1.t).unwrap());
         let e = scene.intersect1(Ray::new(o, d));
         assert_eq!(brute.is_some(), e.is_some());

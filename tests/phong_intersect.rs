@@ -385,3 +385,39 @@ proptest! {
         }
     }
 }
+
+/// The certified Newton path decides the same hits and misses as the analytic method it
+/// stands in for, on rays that hit and rays moved sideways to miss (and through neighbouring
+/// regions): any disagreement lies at the edge of the domain, where both answers are right to
+/// rounding, and the t values agree to f32 accuracy.
+#[test]
+fn certified_agrees_with_analytic() {
+    let mut rng = SplitMix(99);
+    let (mut n, mut hits, mut certified_only, mut analytic_only) = (0, 0, 0, 0);
+    for i in 0..40_000 {
+        let cat = [Category::RandomCurved, Category::StronglyCurved, Category::NearFlat, Category::Grazing][i % 4];
+        let c = generate(&mut rng, cat);
+        let side = c.dir.any_orthonormal_vector() * rng.range(-0.7, 0.7) * c.size;
+        let p: Patch<f32> = Patch::new(c.p, c.n, c.alpha);
+        let (o, d) = (V3::from(c.org + side).cast::<f32>(), V3::from(c.dir).cast::<f32>());
+        let a = intersect(&p, o, d, 0.0, f32::INFINITY, Method::AnalyticPolished);
+        let b = intersect(&p, o, d, 0.0, f32::INFINITY, Method::Certified);
+        n += 1;
+        match (a, b) {
+            (Some(a), Some(b)) => {
+                hits += 1;
+                if cat != Category::Grazing {
+                    assert!(((a.t - b.t) / a.t).abs() < 1e-5, "case {i}: t {} vs {}", a.t, b.t);
+                }
+            }
+            (None, None) => {}
+            (Some(h), None) | (None, Some(h)) => {
+                let edge = h.u.min(h.v).min(1.0 - h.u - h.v);
+                assert!(edge < 1e-3 || cat == Category::Grazing, "case {i}: disagreement inside the domain at ({}, {})", h.u, h.v);
+                if a.is_some() { analytic_only += 1 } else { certified_only += 1 }
+            }
+        }
+    }
+    assert!(hits > n / 4 && hits < n * 3 / 4, "{hits} hits of {n}: the rays should both hit and miss");
+    assert!(analytic_only + certified_only <= n / 1000, "{analytic_only} + {certified_only} disagreements in {n}");
+}

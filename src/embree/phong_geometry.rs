@@ -83,7 +83,7 @@ impl PhongMesh {
             bounds.push((Vec3::from(lo), Vec3::from(hi)));
             patches.push(patch);
         }
-        Ok(PhongMesh { patches, bounds, degenerate, method: Method::AnalyticPolished })
+        Ok(PhongMesh { patches, bounds, degenerate, method: Method::Certified })
     }
 
     /// The true surface point at `(u, v)` of patch `prim`, with a bound on its rounding error.

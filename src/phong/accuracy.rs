@@ -248,8 +248,8 @@ type Eval = fn(&Case, Method) -> Outcome;
 
 /// Run every method and precision on `rays_per_category` cases of every category.
 pub fn report(rays_per_category: usize, seed: u64) -> AccuracyReport {
-    let methods: [(&'static str, Method); 3] =
-        [("analytic", Method::Analytic), ("analytic+polish", Method::AnalyticPolished), ("newton", Method::Newton)];
+    let methods: [(&'static str, Method); 4] =
+        [("analytic", Method::Analytic), ("analytic+polish", Method::AnalyticPolished), ("newton", Method::Newton), ("certified", Method::Certified)];
     let precisions: [(&'static str, Eval); 2] = [("f32", evaluate::<f32>), ("f64", evaluate::<f64>)];
     let mut rows = Vec::new();
     for cat in Category::ALL {

@@ -21,6 +21,10 @@ pub enum Method {
     AnalyticPolished,
     /// Newton–Raphson on `(u, v, t)` from the flat triangle's hit (the comparison the paper left open).
     Newton,
+    /// Newton–Raphson where a cheap certificate proves the ray meets the patch at most once near
+    /// the triangle (so a converged root is *the* answer), the polished analytic method
+    /// elsewhere: as exact as `AnalyticPolished`, faster on most rays (the render path).
+    Certified,
 }
 
 /// A symmetric 3×3 conic matrix `[[a, c/2, d/2], [c/2, b, e/2], [d/2, e/2, f]]` for
@@ -535,6 +539,99 @@ fn analytic_local<T: Real>(p: &Patch<T>, o: V3<T>, d: V3<T>, tmin: T, tmax: T, p
     (hit, ambiguous)
 }
 
+/// The certified Newton step of [`Method::Certified`]: `Some(answer)` when it is proven,
+/// `None` when the caller must run the analytic method.
+///
+/// Project the patch along the ray: `π(u, v) = (n1·P(u,v), n2·P(u,v))`, with `n1, n2` the ray's
+/// two planes. The ray meets the surface at `(u, v)` exactly where `π(u, v) = π(o)`. If the
+/// symmetric part of `J0⁻¹ J(u, v)` is positive definite over a convex region `R` (`J` the
+/// Jacobian of `π`, `J0` a fixed matrix), then `(x-y)ᵀ J0⁻¹ (π(x) - π(y)) > 0` for `x ≠ y` in
+/// `R`: `π` is one-to-one on `R` and the ray meets that part of the surface at most once
+/// (Gale & Nikaidô 1965). `J` is linear in `(u, v)`, so checking the three corners of a
+/// triangular `R` checks all of it. `R` is the domain enlarged by 1.25 about its centroid (larger regions fail the test on
+/// strongly curved patches more often than they save), so a
+/// Newton root in `R` but well outside the domain also proves a miss.
+fn certified_newton<T: Real>(p: &Patch<T>, o: V3<T>, d: V3<T>, tmin: T, tmax: T) -> Option<Option<PatchHit<T>>> {
+    let (n1, n2) = planes_for(d)?;
+    // Projected partials: J(u, v) = [[2 a1 u + c1 v + d1, c1 u + 2 b1 v + e1], [.. same with n2 ..]].
+    let two = T::ONE + T::ONE;
+    let jac = |u: T, v: T| -> [T; 4] {
+        let pu = p.a * (two * u) + p.c * v + p.d;
+        let pv = p.b * (two * v) + p.c * u + p.e;
+        [n1.dot(pu), n1.dot(pv), n2.dot(pu), n2.dot(pv)]
+    };
+    let third = T::from_f64(1.0 / 3.0);
+    let j0 = jac(third, third);
+    let det0 = j0[0] * j0[3] - j0[1] * j0[2];
+    let j0n = j0.iter().fold(T::ZERO, |m, x| m.max(x.abs()));
+    // A J0 within rounding of singular (the ray grazes the patch) proves nothing.
+    if !(det0.abs() > T::gamma(64).sqrt() * j0n * j0n) {
+        return None;
+    }
+    let inv = T::ONE / det0;
+    let (lo, hi) = (T::from_f64(-0.25 / 3.0), T::from_f64(3.5 / 3.0));
+    for (u, v) in [(lo, lo), (hi, lo), (lo, hi)] {
+        let j = jac(u, v);
+        // M = J0⁻¹ J; its symmetric part must be clearly positive definite (a margin of 1% of
+        // its diagonal product keeps the answer out of the rounding of J0⁻¹ and of J).
+        let m00 = (j0[3] * j[0] - j0[1] * j[2]) * inv;
+        let m01 = (j0[3] * j[1] - j0[1] * j[3]) * inv;
+        let m10 = (j0[0] * j[2] - j0[2] * j[0]) * inv;
+        let m11 = (j0[0] * j[3] - j0[2] * j[1]) * inv;
+        let h = (m01 + m10) * T::from_f64(0.5);
+        if !(m00 > T::ZERO && m11 > T::ZERO && m00 * m11 - h * h > T::from_f64(0.01) * m00 * m11) {
+            return None;
+        }
+    }
+    // Newton from the ray's hit with the flat triangle.
+    let p0 = p.f;
+    let (e1, e2) = (p.a + p.d, p.b + p.e); // P(1,0) - P(0,0), P(0,1) - P(0,0)
+    let pv = d.cross(e2);
+    let det = e1.dot(pv);
+    if det == T::ZERO || !det.is_finite() {
+        return None;
+    }
+    let idet = T::ONE / det;
+    let s = o - p0;
+    let q = s.cross(e1);
+    let (mut u, mut v, mut t) = (s.dot(pv) * idet, d.dot(q) * idet, e2.dot(q) * idet);
+    let d_len = d.max_abs();
+    let mut converged = false;
+    for _ in 0..8 {
+        let (nu, nv, nt) = newton_step(p, o, d, u, v, t)?;
+        let step = (nu - u).abs().max((nv - v).abs()).max((nt - t).abs() * d_len);
+        (u, v, t) = (nu, nv, nt);
+        if step <= T::gamma(64) {
+            converged = true;
+            break;
+        }
+    }
+    // The root must be converged, on the ray to rounding, and inside R (with room for its error).
+    let scale = T::ONE + o.max_abs() + (d * t).max_abs();
+    let res = (p.eval_local(u, v) - o - d * t).max_abs();
+    let slack = T::from_f64(0.005);
+    let in_r = u >= lo + slack && v >= lo + slack && u + v <= T::ONE - lo - slack;
+    if !converged || !(res <= T::gamma(1024) * scale) || !in_r {
+        return None;
+    }
+    if inside(u, v) {
+        if !(t > tmin && t < tmax) {
+            return Some(None);
+        }
+        let (u, v) = (u.max(T::ZERO), v.max(T::ZERO));
+        let sum = u + v;
+        let (u, v) = if sum > T::ONE { (u / sum, v / sum) } else { (u, v) };
+        return Some(Some(PatchHit { t, u, v }));
+    }
+    // Outside the domain: a proven miss, unless within the band where the analytic method would
+    // decide again in f64.
+    let margin = domain_tolerance::<T>() * T::from_f64(64.0);
+    if near_domain(u, v, margin) {
+        return None;
+    }
+    Some(None)
+}
+
 /// Newton–Raphson on `(u, v, t)` from the hit of the ray with the flat triangle's plane.
 fn newton_local<T: Real>(p: &Patch<T>, o: V3<T>, d: V3<T>, tmin: T, tmax: T) -> Option<PatchHit<T>> {
     // Start: the flat triangle P0 + u (P1 - P0) + v (P2 - P0), unclamped.
@@ -594,7 +691,12 @@ pub fn intersect<T: Real>(p: &Patch<T>, org: V3<T>, dir: V3<T>, tmin: T, tmax: T
     }
     match method {
         Method::Analytic => analytic_local(p, o, d, tmin, tmax, false).0,
-        Method::AnalyticPolished => {
+        Method::AnalyticPolished | Method::Certified => {
+            if method == Method::Certified {
+                if let Some(answer) = certified_newton(p, o, d, tmin, tmax) {
+                    return answer;
+                }
+            }
             let (hit, ambiguous) = analytic_local(p, o, d, tmin, tmax, true);
             // In f32, a miss that rested on a step within rounding (near tangency, a root at the
             // domain's edge) is decided again in f64 on the same f32 surface: the f32 solve

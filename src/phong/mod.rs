@@ -10,7 +10,7 @@
 //! let patch: Patch<f32> = Patch::new(p, n, 1.0);
 //! let org = V3::from(Vec3::new(0.3, 0.3, 1.0));
 //! let dir = V3::from(Vec3::new(0.0, 0.0, -1.0));
-//! let hit = intersect(&patch, org, dir, 0.0, f32::INFINITY, Method::AnalyticPolished).unwrap();
+//! let hit = intersect(&patch, org, dir, 0.0, f32::INFINITY, Method::Certified).unwrap();
 //! assert!(hit.t < 1.0); // in front of the flat triangle
 //! let point = patch.eval(hit.u, hit.v);
 //! assert!((point.z - (1.0 - hit.t)).abs() < 1e-5);
