@@ -18,9 +18,11 @@ pub enum BenchMethod {
     Flat,
     /// The Phong surface evaluated at `L` segments per edge into native triangles.
     Pretessellated(u32),
-    /// Direct Phong, analytic + polish, f32 (the render path).
+    /// Direct Phong, certified Newton with the analytic method as fallback, f32 (the render path).
     DirectF32,
-    /// Direct Phong, analytic + polish, f64.
+    /// Direct Phong, analytic + polish for every ray, f32.
+    AnalyticF32,
+    /// Direct Phong, analytic + polish, f64 (the reference).
     DirectF64,
     /// Direct Phong, Newton–Raphson, f32.
     NewtonF32,
@@ -36,6 +38,7 @@ impl BenchMethod {
             BenchMethod::Flat => "flat".into(),
             BenchMethod::Pretessellated(l) => format!("pretess-{l}"),
             BenchMethod::DirectF32 => "direct-f32".into(),
+            BenchMethod::AnalyticF32 => "analytic-f32".into(),
             BenchMethod::DirectF64 => "direct-f64".into(),
             BenchMethod::NewtonF32 => "newton-f32".into(),
             BenchMethod::UserFloor => "user-floor".into(),
@@ -47,7 +50,7 @@ impl BenchMethod {
     pub fn all() -> Vec<BenchMethod> {
         let mut v = vec![BenchMethod::Flat];
         v.extend([1, 2, 4, 8, 16, 32, 64].map(BenchMethod::Pretessellated));
-        v.extend([BenchMethod::DirectF32, BenchMethod::DirectF64, BenchMethod::NewtonF32, BenchMethod::UserFloor, BenchMethod::Subdivision]);
+        v.extend([BenchMethod::DirectF32, BenchMethod::AnalyticF32, BenchMethod::DirectF64, BenchMethod::NewtonF32, BenchMethod::UserFloor, BenchMethod::Subdivision]);
         v
     }
 }
@@ -183,11 +186,13 @@ fn build(device: &Device, m: &Mesh, method: BenchMethod) -> anyhow::Result<(Scen
             s.attach_triangles(&p, &i, GeometryOptions::default())?;
             0
         }
-        BenchMethod::DirectF32 | BenchMethod::NewtonF32 => {
+        BenchMethod::DirectF32 | BenchMethod::AnalyticF32 | BenchMethod::NewtonF32 => {
             let straight = straight_edges(m);
             let mut pm = PhongMesh::with_straight_edges(&m.positions, &m.normals, &m.indices, 1.0, Some(&straight))?;
-            if method == BenchMethod::NewtonF32 {
-                pm.method = Method::Newton;
+            match method {
+                BenchMethod::NewtonF32 => pm.method = Method::Newton,
+                BenchMethod::AnalyticF32 => pm.method = Method::AnalyticPolished,
+                _ => {}
             }
             let own = pm.memory_bytes();
             s.attach_phong(pm, UserGeometryOptions::default())?;

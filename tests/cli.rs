@@ -141,7 +141,7 @@ fn bench_writes_csv_table_and_plot() {
         .stdout(predicate::str::contains("| direct-f32 |").and(predicate::str::contains("| subdiv-cc |")).and(predicate::str::contains("pretess-2")));
     let _ = a;
     let csv = std::fs::read_to_string(dir.path().join("bench.csv")).unwrap();
-    assert_eq!(csv.lines().count(), 1 + 1 + 2 + 5, "{csv}");
+    assert_eq!(csv.lines().count(), 1 + 1 + 2 + 6, "{csv}");
     // The f64 direct render is the reference: zero error against itself.
     assert!(csv.lines().any(|l| l.contains(",direct-f64,") && l.contains(",0.000e0,0.000e0,0,")), "{csv}");
     // Every row has a positive shaded-render time (the last column).
