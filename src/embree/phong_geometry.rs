@@ -65,24 +65,25 @@ impl PhongMesh {
         if let Some(i) = (0..positions.len()).find(|&i| !positions[i].is_finite() || !normals[i].is_finite()) {
             return Err(PhongMeshError::NonFinite(i));
         }
-        let mut patches = Vec::with_capacity(indices.len());
-        let mut bounds = Vec::with_capacity(indices.len());
-        let mut degenerate = 0;
-        for (t, tri) in indices.iter().enumerate() {
-            if let Some(&index) = tri.iter().find(|&&i| i as usize >= positions.len()) {
-                return Err(PhongMeshError::Index { tri: t, index, count: positions.len() });
-            }
-            let p = tri.map(|i| positions[i as usize].as_dvec3());
-            let n = tri.map(|i| normals[i as usize].as_dvec3());
-            let s = straight.map_or([false; 3], |s| s[t]);
-            let patch: Patch<f32> = Patch::with_straight_edges(p, n, alpha as f64, s);
-            if patch.degenerate {
-                degenerate += 1;
-            }
-            let (lo, hi) = patch.bounds();
-            bounds.push((Vec3::from(lo), Vec3::from(hi)));
-            patches.push(patch);
+        if let Some((t, &index)) = indices.iter().enumerate().find_map(|(t, tri)| tri.iter().find(|&&i| i as usize >= positions.len()).map(|i| (t, i))) {
+            return Err(PhongMeshError::Index { tri: t, index, count: positions.len() });
         }
+        // Patches are independent: build them on every core (order kept, so deterministic).
+        use rayon::prelude::*;
+        let built: Vec<(Patch<f32>, (Vec3, Vec3))> = indices
+            .par_iter()
+            .enumerate()
+            .map(|(t, tri)| {
+                let p = tri.map(|i| positions[i as usize].as_dvec3());
+                let n = tri.map(|i| normals[i as usize].as_dvec3());
+                let s = straight.map_or([false; 3], |s| s[t]);
+                let patch: Patch<f32> = Patch::with_straight_edges(p, n, alpha as f64, s);
+                let (lo, hi) = patch.bounds();
+                (patch, (Vec3::from(lo), Vec3::from(hi)))
+            })
+            .collect();
+        let degenerate = built.iter().filter(|(p, _)| p.degenerate).count();
+        let (patches, bounds): (Vec<_>, Vec<_>) = built.into_iter().unzip();
         Ok(PhongMesh { patches, bounds, degenerate, method: Method::Certified })
     }
 
