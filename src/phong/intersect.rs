@@ -390,10 +390,11 @@ fn newton_step<T: Real>(p: &Patch<T>, o: V3<T>, d: V3<T>, u: T, v: T, t: T) -> O
 /// The paper's analytic intersection in the local frame; `polish` adds Newton steps per root.
 /// Also says whether the answer is *ambiguous*: it rested on a step whose sign or acceptance
 /// is within rounding (a discriminant near zero, a root just outside the domain or off the ray,
-/// no usable degenerate conic), so that a higher precision may decide differently.
-fn analytic_local<T: Real>(p: &Patch<T>, o: V3<T>, d: V3<T>, tmin: T, tmax: T, polish: bool) -> (Option<PatchHit<T>>, bool) {
+/// no usable degenerate conic, a Newton step that diverged), so that a higher precision may
+/// decide differently.
+fn analytic_local<T: Real>(p: &Patch<T>, o: V3<T>, d: V3<T>, tmin: T, tmax: T, polish: bool) -> (Option<PatchHit<T>>, Ambiguity) {
     let mut ambiguous = false;
-    let Some((n1, n2)) = planes_for(d) else { return (None, false) };
+    let Some((n1, n2)) = planes_for(d) else { return (None, Ambiguity::default()) };
     // The two conics: n_k · (P(u,v) - o) = 0.
     let conic = |n: V3<T>| Conic {
         k: [n.dot(p.a), n.dot(p.b), n.dot(p.c), n.dot(p.d), n.dot(p.e), n.dot(p.f - o)],
@@ -402,7 +403,7 @@ fn analytic_local<T: Real>(p: &Patch<T>, o: V3<T>, d: V3<T>, tmin: T, tmax: T, p
     let (nf, ng) = (cf.norm(), cg.norm());
     if nf == T::ZERO || ng == T::ZERO {
         // The ray lies in the patch's plane (a flat patch seen edge-on): no isolated hit.
-        return (None, false);
+        return (None, Ambiguity::default());
     }
     let (m, n) = (cf.mat(), cg.mat());
     // det(x M + N) = x³ det M + x² tr(adj(M) N) + x tr(M adj(N)) + det N.
@@ -438,6 +439,9 @@ fn analytic_local<T: Real>(p: &Patch<T>, o: V3<T>, d: V3<T>, tmin: T, tmax: T, p
 
     let mut best: Option<PatchHit<T>> = None;
     let (mut unsure_split, mut clean_split) = (false, false);
+    // Whether the nearest hit is an unpolished root whose Newton step diverged (a ray within
+    // rounding of tangency): it may be a near miss.
+    let mut best_unsure = false;
     let dd = d.dot(d);
     let size_tol = T::gamma(64).sqrt(); // residual gate before polish (relative to the unit patch)
     // The distance from the domain beyond which a root is decided: the residual gate's own
@@ -496,6 +500,9 @@ fn analytic_local<T: Real>(p: &Patch<T>, o: V3<T>, d: V3<T>, tmin: T, tmax: T, p
                     continue;
                 }
                 let unpolished = (u, v, t);
+                // A vertex offered at near tangency is a root only to rounding: a hit on it is
+                // as uncertain as a miss would be.
+                let mut diverged = near_tangent;
                 if polish {
                     for _ in 0..1 {
                         match newton_step(p, o, d, u, v, t) {
@@ -514,11 +521,13 @@ fn analytic_local<T: Real>(p: &Patch<T>, o: V3<T>, d: V3<T>, tmin: T, tmax: T, p
                         // Newton diverged (a near-singular Jacobian at tangency): keep the
                         // unpolished root, which passed the residual gate.
                         ambiguous = true;
+                        diverged = true;
                         (u, v, t) = unpolished;
                     }
                     // Two close roots (grazing): if the step jumped out of the domain, keep the
                     // unpolished root when that one is inside.
                     if !inside(u, v) && inside(unpolished.0, unpolished.1) {
+                        diverged = true;
                         (u, v, t) = unpolished;
                     }
                 }
@@ -530,6 +539,7 @@ fn analytic_local<T: Real>(p: &Patch<T>, o: V3<T>, d: V3<T>, tmin: T, tmax: T, p
                 }
                 if inside(u, v) && t > tmin && t < tmax && best.is_none_or(|b| t < b.t) {
                     best = Some(PatchHit { t, u, v });
+                    best_unsure = diverged;
                 }
             }
         }
@@ -551,7 +561,17 @@ fn analytic_local<T: Real>(p: &Patch<T>, o: V3<T>, d: V3<T>, tmin: T, tmax: T, p
         let (u, v) = if s > T::ONE { (u / s, v / s) } else { (u, v) };
         PatchHit { t: h.t, u, v }
     });
-    (hit, ambiguous)
+    (hit, Ambiguity { miss: ambiguous, hit: hit.is_some() && best_unsure })
+}
+
+/// Which answers of [`analytic_local`] rest on a step within rounding, so that a higher
+/// precision may decide differently.
+#[derive(Clone, Copy, Debug, Default)]
+struct Ambiguity {
+    /// A miss would be uncertain.
+    miss: bool,
+    /// The hit found is uncertain (an unconverged root at near tangency).
+    hit: bool,
 }
 
 /// The certified Newton step of [`Method::Certified`]: `Some(answer)` when it is proven,
@@ -714,11 +734,17 @@ pub fn intersect<T: Real>(p: &Patch<T>, org: V3<T>, dir: V3<T>, tmin: T, tmax: T
             }
             let (hit, ambiguous) = analytic_local(p, o, d, tmin, tmax, true);
             // In f32, a miss that rested on a step within rounding (near tangency, a root at the
-            // domain's edge) is decided again in f64 on the same f32 surface: the f32 solve
-            // stays the common path, f64 only settles the rays it cannot.
-            if hit.is_none() && ambiguous && T::UNIT_ROUNDOFF.to_f64() > 1e-10 {
+            // domain's edge), or a hit on an unconverged root at near tangency, is decided again
+            // in f64 on the same f32 surface: the f32 solve stays the common path, f64 only
+            // settles the rays it cannot.
+            let unsure = (hit.is_none() && ambiguous.miss) || ambiguous.hit;
+            if unsure && T::UNIT_ROUNDOFF.to_f64() > 1e-10 {
                 let p64 = p.cast::<f64>();
-                let (h, _) = analytic_local(&p64, o.cast(), d.cast(), tmin.to_f64(), tmax.to_f64(), true);
+                // The local ray again, in f64 from the world-space input: its f32 rounding alone
+                // moves a grazing ray across the surface.
+                let o64 = (org.cast::<f64>() - p64.center) * p64.inv_scale;
+                let d64 = dir.cast::<f64>() * p64.inv_scale;
+                let (h, _) = analytic_local(&p64, o64, d64, tmin.to_f64(), tmax.to_f64(), true);
                 return h.map(|h| PatchHit { t: T::from_f64(h.t), u: T::from_f64(h.u), v: T::from_f64(h.v) });
             }
             hit
@@ -753,7 +779,7 @@ mod tests {
             let (hit, ambiguous) = analytic_local(&p, o, d, 0.0, f32::INFINITY, true);
             if hit.is_none() {
                 misses += 1;
-                ambiguous_misses += ambiguous as usize;
+                ambiguous_misses += ambiguous.miss as usize;
             }
         }
         assert!(misses > 1000, "too few misses to judge: {misses}");

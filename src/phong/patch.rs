@@ -13,7 +13,8 @@ use super::real::{Real, V3};
 /// A patch, built in f64 and stored in the precision `T` of the solver that uses it.
 ///
 /// Geometry lives in a local frame: `x_local = (x - center) * inv_scale`, with `center` the
-/// centroid of the corners and `1/inv_scale` the largest corner distance from it, so the solve
+/// centroid of the corners and `1/inv_scale` the largest corner distance from it rounded up to a
+/// power of two, so the solve
 /// does not lose accuracy with distance from the origin or with the patch size. Ray parameters
 /// `t` are the same in both frames.
 #[derive(Clone, Copy, Debug)]
@@ -123,7 +124,10 @@ impl<T: Real> Patch<T> {
         let center: V3<f64> = ((p[0] + p[1] + p[2]) * (1.0 / 3.0)).cast::<T>().to_f64();
         let center = if center.is_finite() { center } else { V3::zero() };
         let scale = p.iter().map(|q| (*q - center).length()).fold(0.0, f64::max);
-        let (scale, inv) = if degenerate || !(scale > 0.0) { (1.0, 1.0) } else { (scale, 1.0 / scale) };
+        // A power of two, so the map to the local frame and back only shifts exponents: no
+        // rounding from the scale in either precision, and the same frame in f32 and f64.
+        let scale = if scale > 0.0 && scale.is_finite() { 2f64.powi(scale.log2().ceil() as i32) } else { scale };
+        let (scale, inv) = if degenerate || !(scale > 0.0 && scale.is_finite()) { (1.0, 1.0) } else { (scale, 1.0 / scale) };
         let q = control_points(p, n, alpha, straight).map(|c| (c - center) * inv);
         let [p0, p1, p2, p01, p12, p20] = q;
         // Bernstein to power basis (w = 1-u-v).
