@@ -252,7 +252,7 @@ fn apply_scene_file(world: &mut World, sf: &SceneFile) {
 }
 
 fn bench_cmd(args: cli::BenchArgs) -> anyhow::Result<()> {
-    use phongrt::bench::{bench_scene, equal_silhouette_summary, mem_total, plot, plot_scaling, to_csv, to_markdown, BenchMethod};
+    use phongrt::bench::{bench_scene, equal_depth_summary, equal_silhouette_summary, mem_total, plot, plot_scaling, to_csv, to_markdown, BenchMethod};
     anyhow::ensure!(args.size >= 8 && args.size <= 4096, "--size {} is not in 8..=4096", args.size);
     let methods: Vec<BenchMethod> = BenchMethod::all()
         .into_iter()
@@ -290,10 +290,12 @@ fn bench_cmd(args: cli::BenchArgs) -> anyhow::Result<()> {
     bar.finish_and_clear();
     let mem = mem_total();
     let md = format!(
-        "{}\nPre-tessellation that matches direct Phong's silhouette ({} GB of RAM here):\n\n{}",
+        "{}\nPre-tessellation that matches direct Phong's silhouette ({ram} GB of RAM here):\n\n{}\n\
+         Pre-tessellation that matches direct Phong's hit distances (median relative error, {ram} GB of RAM here):\n\n{}",
         to_markdown(&rows),
-        mem.map_or("?".to_string(), |m| format!("{:.1}", m as f64 / 1e9)),
-        equal_silhouette_summary(&rows, mem)
+        equal_silhouette_summary(&rows, mem),
+        equal_depth_summary(&rows, mem),
+        ram = mem.map_or("?".to_string(), |m| format!("{:.1}", m as f64 / 1e9)),
     );
     std::fs::write(args.out.join("bench.csv"), to_csv(&rows))?;
     std::fs::write(args.out.join("bench.md"), &md)?;

@@ -148,6 +148,7 @@ fn bench_writes_csv_table_and_plot() {
     assert!(csv.lines().skip(1).all(|l| l.rsplit(',').next().and_then(|x| x.parse::<f64>().ok()).is_some_and(|x| x > 0.0)), "{csv}");
     let md = std::fs::read_to_string(dir.path().join("bench.md")).unwrap();
     assert!(md.contains("equal-silhouette pre-tessellation") && md.contains("| sphere-"), "{md}");
+    assert!(md.contains("equal-depth pre-tessellation"), "{md}");
     assert!(image::open(dir.path().join("bench.png")).is_ok());
     assert!(image::open(dir.path().join("bench-scaling.png")).is_ok());
 }
