@@ -12,3 +12,9 @@ pub mod embree;
 pub mod phong;
 pub mod render;
 pub mod scene;
+
+/// The README's Rust examples, compiled and run as doctests (the one that needs a mesh in
+/// scope is marked `ignore`; `tests/phong_embree.rs` runs the same calls).
+#[cfg(doctest)]
+#[doc = include_str!("../README.md")]
+pub struct ReadmeDoctests;
