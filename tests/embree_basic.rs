@@ -94,3 +94,23 @@ fn subdivision_surface_of_an_octahedron_is_inside_it_and_hit() {
     assert!(h.t > 2.0 && h.t < 2.9, "t = {}", h.t);
     assert!(scene.attach_subdivision(&p, &[[0, 1, 9]], 4.0).is_err());
 }
+
+#[test]
+fn a_refused_attach_releases_what_it_made() {
+    // A scene instanced elsewhere cannot change: attaching to it fails after the buffers and
+    // the geometry are made, and everything made must be released again.
+    let device = Device::new().unwrap();
+    let child = unit_triangle_scene(&device, u32::MAX);
+    let mut parent = Scene::new(&device).unwrap();
+    parent.attach_instance(&child, Mat4::IDENTITY, u32::MAX).unwrap();
+    let mut child = child;
+    let big: Vec<Vec3> = (0..30_000).map(|i| Vec3::new(i as f32, 0.0, 0.0)).collect();
+    let tris: Vec<[u32; 3]> = (0..10_000u32).map(|i| [3 * i, 3 * i + 1, 3 * i + 2]).collect();
+    let before = device.memory_bytes().0;
+    for _ in 0..3 {
+        assert!(child.attach_triangles(&big, &tris, GeometryOptions::default()).is_err());
+        assert!(child.attach_subdivision(&big, &tris, 2.0).is_err());
+    }
+    let after = device.memory_bytes().0;
+    assert_eq!(after, before, "Embree memory grew by {} bytes over 6 refused attaches", after - before);
+}

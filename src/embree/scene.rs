@@ -150,23 +150,77 @@ impl Default for GeometryOptions {
     }
 }
 
+/// One reference to an Embree buffer, released on drop: on every error path too.
+pub(crate) struct OwnedBuffer(sys::RTCBuffer);
+
+impl OwnedBuffer {
+    pub(crate) fn raw(&self) -> sys::RTCBuffer {
+        self.0
+    }
+}
+
+impl Drop for OwnedBuffer {
+    fn drop(&mut self) {
+        // SAFETY: we hold one reference to a live buffer (from rtcNewBuffer); a geometry the
+        // buffer is bound to keeps its own (rtcSetGeometryBuffer docs).
+        unsafe { sys::rtcReleaseBuffer(self.0) }
+    }
+}
+
+/// One reference to an Embree geometry, released on drop: on every error path too.
+pub(crate) struct OwnedGeometry(sys::RTCGeometry);
+
+impl OwnedGeometry {
+    /// Take ownership of one reference to `geom`, or report a null handle.
+    pub(crate) fn new(geom: sys::RTCGeometry, what: &'static str) -> Result<Self, EmbreeError> {
+        if geom.is_null() {
+            return Err(EmbreeError::Null(what));
+        }
+        Ok(OwnedGeometry(geom))
+    }
+    pub(crate) fn raw(&self) -> sys::RTCGeometry {
+        self.0
+    }
+}
+
+impl Drop for OwnedGeometry {
+    fn drop(&mut self) {
+        // SAFETY: we hold one reference to a live geometry (from rtcNewGeometry); a scene it is
+        // attached to keeps its own (rtcAttachGeometry docs).
+        unsafe { sys::rtcReleaseGeometry(self.0) }
+    }
+}
+
 /// A new Embree buffer holding a copy of `items`, with the 16 bytes of padding Embree asks for
 /// after the last element (the last float3 must be readable with a 16-byte load).
-fn new_buffer_from<T: Copy>(device: &Device, items: &[T]) -> Result<sys::RTCBuffer, EmbreeError> {
+fn new_buffer_from<T: Copy>(device: &Device, items: &[T]) -> Result<OwnedBuffer, EmbreeError> {
     let bytes = std::mem::size_of_val(items);
     // SAFETY: the device is live (held by `device`); rtcNewBuffer allocates `bytes + 16` bytes
     // that rtcGetBufferData exposes for writing (rtcNewBuffer docs); we copy exactly `bytes`
     // from a valid slice of plain `Copy` data (Vec3 and [u32; 3] are 12 bytes without padding).
     unsafe {
         let buf = sys::rtcNewBuffer(device.raw(), bytes + 16);
-        device.check()?;
         if buf.is_null() {
+            device.check()?;
             return Err(EmbreeError::Null("buffer"));
         }
-        let ptr = sys::rtcGetBufferData(buf) as *mut u8;
+        let buf = OwnedBuffer(buf);
+        device.check()?;
+        let ptr = sys::rtcGetBufferData(buf.raw()) as *mut u8;
         std::ptr::copy_nonoverlapping(items.as_ptr() as *const u8, ptr, bytes);
         Ok(buf)
     }
+}
+
+/// A new geometry of `kind` on `device`, owned.
+fn new_geometry(device: &Device, kind: sys::RTCGeometryType, what: &'static str) -> Result<OwnedGeometry, EmbreeError> {
+    // SAFETY: the device is live (held by `device`); rtcNewGeometry returns a geometry with one
+    // reference, or null with the error recorded on the device.
+    let geom = unsafe { sys::rtcNewGeometry(device.raw(), kind) };
+    if geom.is_null() {
+        device.check()?;
+    }
+    OwnedGeometry::new(geom, what)
 }
 
 impl Scene {
@@ -208,16 +262,14 @@ impl Scene {
         Ok(())
     }
 
-    /// Attach a committed raw geometry, releasing our reference to it; returns its geomID.
-    pub(crate) fn attach_raw(&mut self, geom: sys::RTCGeometry) -> Result<u32, EmbreeError> {
+    /// Attach a committed geometry (our reference to it is released either way); returns its
+    /// geomID.
+    pub(crate) fn attach_raw(&mut self, geom: OwnedGeometry) -> Result<u32, EmbreeError> {
         let raw = self.handle_mut()?.raw;
         // SAFETY: `geom` is a live, committed geometry of this scene's device; attaching
-        // retains it, so releasing our reference afterwards leaves the scene's (rtcAttachGeometry docs).
-        let id = unsafe {
-            let id = sys::rtcAttachGeometry(raw, geom);
-            sys::rtcReleaseGeometry(geom);
-            id
-        };
+        // retains it, and `geom` then drops our own reference (rtcAttachGeometry docs).
+        let id = unsafe { sys::rtcAttachGeometry(raw, geom.raw()) };
+        drop(geom);
         self.device().check()?;
         Ok(id)
     }
@@ -238,19 +290,16 @@ impl Scene {
         let device = self.device().clone();
         let vbuf = new_buffer_from(&device, positions)?;
         let ibuf = new_buffer_from(&device, indices)?;
-        // SAFETY: the device is live; both buffers hold the stated item counts (12-byte items)
-        // and are bound before the geometry is committed; our buffer references are released
-        // once bound (the geometry retains them) (rtcSetGeometryBuffer docs).
-        let geom = unsafe {
-            let geom = sys::rtcNewGeometry(device.raw(), sys::RTCGeometryType::RTC_GEOMETRY_TYPE_TRIANGLE);
-            sys::rtcSetGeometryBuffer(geom, sys::RTCBufferType::RTC_BUFFER_TYPE_VERTEX, 0, sys::RTCFormat::RTC_FORMAT_FLOAT3, vbuf, 0, 12, positions.len());
-            sys::rtcSetGeometryBuffer(geom, sys::RTCBufferType::RTC_BUFFER_TYPE_INDEX, 0, sys::RTCFormat::RTC_FORMAT_UINT3, ibuf, 0, 12, indices.len());
-            sys::rtcReleaseBuffer(vbuf);
-            sys::rtcReleaseBuffer(ibuf);
-            sys::rtcSetGeometryMask(geom, options.mask);
-            sys::rtcCommitGeometry(geom);
-            geom
-        };
+        let geom = new_geometry(&device, sys::RTCGeometryType::RTC_GEOMETRY_TYPE_TRIANGLE, "triangle geometry")?;
+        // SAFETY: the geometry and both buffers are live; the buffers hold the stated item
+        // counts (12-byte items) and are bound before the geometry is committed; the geometry
+        // retains them, so our references drop at the end of this function (rtcSetGeometryBuffer docs).
+        unsafe {
+            sys::rtcSetGeometryBuffer(geom.raw(), sys::RTCBufferType::RTC_BUFFER_TYPE_VERTEX, 0, sys::RTCFormat::RTC_FORMAT_FLOAT3, vbuf.raw(), 0, 12, positions.len());
+            sys::rtcSetGeometryBuffer(geom.raw(), sys::RTCBufferType::RTC_BUFFER_TYPE_INDEX, 0, sys::RTCFormat::RTC_FORMAT_UINT3, ibuf.raw(), 0, 12, indices.len());
+            sys::rtcSetGeometryMask(geom.raw(), options.mask);
+            sys::rtcCommitGeometry(geom.raw());
+        }
         device.check()?;
         self.attach_raw(geom)
     }
@@ -274,21 +323,17 @@ impl Scene {
         let vbuf = new_buffer_from(&device, positions)?;
         let ibuf = new_buffer_from(&device, indices)?;
         let fbuf = new_buffer_from(&device, &vec![3u32; indices.len()])?;
+        let geom = new_geometry(&device, sys::RTCGeometryType::RTC_GEOMETRY_TYPE_SUBDIVISION, "subdivision geometry")?;
         // SAFETY: as in `attach_triangles`; the face buffer holds one u32 (3) per face and the
         // index buffer one u32 per corner, as RTC_GEOMETRY_TYPE_SUBDIVISION requires
         // (rtcNewGeometry docs, "Subdivision geometry").
-        let geom = unsafe {
-            let geom = sys::rtcNewGeometry(device.raw(), sys::RTCGeometryType::RTC_GEOMETRY_TYPE_SUBDIVISION);
-            sys::rtcSetGeometryBuffer(geom, sys::RTCBufferType::RTC_BUFFER_TYPE_VERTEX, 0, sys::RTCFormat::RTC_FORMAT_FLOAT3, vbuf, 0, 12, positions.len());
-            sys::rtcSetGeometryBuffer(geom, sys::RTCBufferType::RTC_BUFFER_TYPE_INDEX, 0, sys::RTCFormat::RTC_FORMAT_UINT, ibuf, 0, 4, indices.len() * 3);
-            sys::rtcSetGeometryBuffer(geom, sys::RTCBufferType::RTC_BUFFER_TYPE_FACE, 0, sys::RTCFormat::RTC_FORMAT_UINT, fbuf, 0, 4, indices.len());
-            for b in [vbuf, ibuf, fbuf] {
-                sys::rtcReleaseBuffer(b);
-            }
-            sys::rtcSetGeometryTessellationRate(geom, tessellation_rate);
-            sys::rtcCommitGeometry(geom);
-            geom
-        };
+        unsafe {
+            sys::rtcSetGeometryBuffer(geom.raw(), sys::RTCBufferType::RTC_BUFFER_TYPE_VERTEX, 0, sys::RTCFormat::RTC_FORMAT_FLOAT3, vbuf.raw(), 0, 12, positions.len());
+            sys::rtcSetGeometryBuffer(geom.raw(), sys::RTCBufferType::RTC_BUFFER_TYPE_INDEX, 0, sys::RTCFormat::RTC_FORMAT_UINT, ibuf.raw(), 0, 4, indices.len() * 3);
+            sys::rtcSetGeometryBuffer(geom.raw(), sys::RTCBufferType::RTC_BUFFER_TYPE_FACE, 0, sys::RTCFormat::RTC_FORMAT_UINT, fbuf.raw(), 0, 4, indices.len());
+            sys::rtcSetGeometryTessellationRate(geom.raw(), tessellation_rate);
+            sys::rtcCommitGeometry(geom.raw());
+        }
         device.check()?;
         self.attach_raw(geom)
     }
@@ -301,23 +346,21 @@ impl Scene {
         }
         let device = self.device().clone();
         let cols = transform.to_cols_array();
+        let geom = new_geometry(&device, sys::RTCGeometryType::RTC_GEOMETRY_TYPE_INSTANCE, "instance geometry")?;
         // SAFETY: `child.raw()` is a live committed scene; we keep a reference to its handle
         // below so it outlives this scene. The transform is 16 floats in column-major order,
         // matching RTC_FORMAT_FLOAT4X4_COLUMN_MAJOR, and Embree copies it (rtcSetGeometryTransform docs).
-        let geom = unsafe {
-            let geom = sys::rtcNewGeometry(device.raw(), sys::RTCGeometryType::RTC_GEOMETRY_TYPE_INSTANCE);
-            device.check()?;
-            sys::rtcSetGeometryInstancedScene(geom, child.raw());
+        unsafe {
+            sys::rtcSetGeometryInstancedScene(geom.raw(), child.raw());
             sys::rtcSetGeometryTransform(
-                geom,
+                geom.raw(),
                 0,
                 sys::RTCFormat::RTC_FORMAT_FLOAT4X4_COLUMN_MAJOR,
                 cols.as_ptr() as *const std::ffi::c_void,
             );
-            sys::rtcSetGeometryMask(geom, mask);
-            sys::rtcCommitGeometry(geom);
-            geom
-        };
+            sys::rtcSetGeometryMask(geom.raw(), mask);
+            sys::rtcCommitGeometry(geom.raw());
+        }
         device.check()?;
         self.keep_alive(Box::new(child.inner.clone()))?;
         self.attach_raw(geom)

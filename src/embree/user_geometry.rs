@@ -14,7 +14,7 @@ use std::sync::atomic::{AtomicU64, Ordering};
 use glam::Vec3;
 
 use super::device::{EmbreeError, MAX_INSTANCE_LEVEL_COUNT};
-use super::scene::Scene;
+use super::scene::{OwnedGeometry, Scene};
 use super::sys;
 
 /// A hit on one primitive, in the primitive's own space (instances are Embree's business).
@@ -352,10 +352,11 @@ impl Scene {
         // SAFETY: the device is live; `ptr` points into the box the scene now owns, released
         // only after the scene (and so the geometry) is (SceneHandle field order).
         let geom = unsafe { new_user_geometry(device.raw(), ptr, options) };
-        device.check()?;
         if geom.is_null() {
-            return Err(EmbreeError::Null("user geometry"));
+            device.check()?;
         }
+        let geom = OwnedGeometry::new(geom, "user geometry")?;
+        device.check()?;
         self.attach_raw(geom)
     }
 }
