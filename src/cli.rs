@@ -132,7 +132,7 @@ pub struct AccuracyArgs {
 pub struct BenchArgs {
     /// Extra OBJ models (the first mesh of each).
     pub models: Vec<PathBuf>,
-    /// Output directory for bench.csv, bench.md and bench.png.
+    /// Output directory for bench.csv, bench.md, bench.png and bench-scaling.png.
     #[arg(long, default_value = "bench-out")]
     pub out: PathBuf,
     /// Image size (primary rays per method = size²).
