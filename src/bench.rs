@@ -409,7 +409,8 @@ fn bytes(r: &BenchRow) -> f64 {
     r.embree_bytes.max(0) as f64 + r.own_bytes as f64
 }
 
-/// Runs per timed rate; the best is reported.
+/// Timed runs per rate, beside the first image (which also counts for the all-core rate); the
+/// best is reported.
 const TIMING_RUNS: usize = 3;
 
 /// The shortest wall time of `runs` calls of `f`, in seconds (infinity for no runs).
@@ -428,42 +429,61 @@ fn ratio_text(r: f64) -> String {
     if r < 10.0 { format!("{r:.2}") } else { format!("{r:.0}") }
 }
 
+/// Per scene (in order): its direct f32 row and the pre-tessellation levels built, coarsest first.
+fn direct_and_levels(rows: &[BenchRow]) -> Vec<(&str, &BenchRow, Vec<(u32, &BenchRow)>)> {
+    let mut scenes: Vec<&str> = rows.iter().map(|r| r.scene.as_str()).collect();
+    scenes.dedup();
+    scenes
+        .into_iter()
+        .filter_map(|sc| {
+            let direct = find(rows, sc, "direct-f32")?;
+            let levels = [1u32, 2, 4, 8, 16, 32, 64, 128, 256]
+                .iter()
+                .filter_map(|l| find(rows, sc, &format!("pretess-{l}")).map(|r| (*l, r)))
+                .collect();
+            Some((sc, direct, levels))
+        })
+        .collect()
+}
+
+/// Megabytes of the pre-tessellation at `level`, at the bytes per triangle of `built` (a level
+/// built from the same `triangles`-triangle mesh at level `built_level`).
+fn mb_at_level(built: &BenchRow, built_level: u32, level: u32, triangles: usize) -> f64 {
+    let per_tri = bytes(built) / (triangles as f64 * (built_level as f64).powi(2));
+    per_tri * triangles as f64 * (level as f64).powi(2) / 1e6
+}
+
+/// Whether `mb` megabytes fit in `mem_total` bytes, as a table cell.
+fn fits_text(mb: f64, mem_total: Option<u64>) -> &'static str {
+    match mem_total {
+        Some(m) => if mb * 1e6 < m as f64 { "yes" } else { "**no**" },
+        None => "?",
+    }
+}
+
 /// Per scene: the pre-tessellation that first matches direct Phong's silhouette (no more
 /// mismatched pixels than direct f32 against the f64 reference), its memory against direct's,
 /// and whether it fits in `mem_total` bytes. A level beyond the build budget is estimated from
 /// the bytes per triangle of the largest level built.
 pub fn equal_silhouette_summary(rows: &[BenchRow], mem_total: Option<u64>) -> String {
-    let mut scenes: Vec<&str> = rows.iter().map(|r| r.scene.as_str()).collect();
-    scenes.dedup();
     let mut out = String::from("| scene | direct f32 MB | equal-silhouette pre-tessellation | its MB | × direct | fits in RAM |\n|---|---|---|---|---|---|\n");
-    for sc in scenes {
-        let Some(direct) = find(rows, sc, "direct-f32") else { continue };
-        let tris = direct.triangles as f64;
-        let levels: Vec<(u32, &BenchRow)> = [1u32, 2, 4, 8, 16, 32, 64, 128, 256]
-            .iter()
-            .filter_map(|l| find(rows, sc, &format!("pretess-{l}")).map(|r| (*l, r)))
-            .collect();
+    for (sc, direct, levels) in direct_and_levels(rows) {
         let (level, mb, measured) = match levels.iter().find(|(_, r)| r.silhouette_px <= direct.silhouette_px) {
             Some((l, r)) => (*l, bytes(r) / 1e6, true),
             None => {
                 // Not reached within the budget: the next level up, at the largest built
                 // level's bytes per triangle (which only falls slowly with size).
-                let Some((l, r)) = levels.last() else { continue };
-                let per_tri = bytes(r) / (tris * (*l as f64).powi(2));
-                let next = l * 2;
-                (next, per_tri * tris * (next as f64).powi(2) / 1e6, false)
+                let Some(&(l, r)) = levels.last() else { continue };
+                (l * 2, mb_at_level(r, l, l * 2, direct.triangles), false)
             }
         };
         let direct_mb = bytes(direct) / 1e6;
-        let fits = match mem_total {
-            Some(m) => if mb * 1e6 < m as f64 { "yes" } else { "**no**" },
-            None => "?",
-        };
         out += &format!(
-            "| {sc} | {direct_mb:.2} | level {level}{} | {mb:.1}{} | {} | {fits} |\n",
+            "| {sc} | {direct_mb:.2} | level {level}{} | {mb:.1}{} | {} | {} |\n",
             if measured { "" } else { " or finer (not built)" },
             if measured { "" } else { " or more (estimated)" },
-            ratio_text(mb / direct_mb.max(1e-9))
+            ratio_text(mb / direct_mb.max(1e-9)),
+            fits_text(mb, mem_total)
         );
     }
     out
@@ -478,17 +498,9 @@ pub fn equal_silhouette_summary(rows: &[BenchRow], mem_total: Option<u64>) -> St
 /// (the measured medians follow it: 3.9× per doubling on the head and the spheres), and its
 /// memory at that level's bytes per triangle.
 pub fn equal_depth_summary(rows: &[BenchRow], mem_total: Option<u64>) -> String {
-    let mut scenes: Vec<&str> = rows.iter().map(|r| r.scene.as_str()).collect();
-    scenes.dedup();
     let mut out = String::from("| scene | direct f32 MB | direct f32 mean rel t error | equal-depth pre-tessellation | its MB | × direct | fits in RAM |\n|---|---|---|---|---|---|---|\n");
-    for sc in scenes {
-        let Some(direct) = find(rows, sc, "direct-f32") else { continue };
-        let tris = direct.triangles as f64;
+    for (sc, direct, levels) in direct_and_levels(rows) {
         let target = direct.err_t_mean;
-        let levels: Vec<(u32, &BenchRow)> = [1u32, 2, 4, 8, 16, 32, 64, 128, 256]
-            .iter()
-            .filter_map(|l| find(rows, sc, &format!("pretess-{l}")).map(|r| (*l, r)))
-            .collect();
         let Some(&(finest, finest_row)) = levels.last() else { continue };
         let (level, mb, measured) = match levels.iter().find(|(_, r)| r.err_t_p50 <= target) {
             Some((l, r)) => (*l, bytes(r) / 1e6, true),
@@ -499,20 +511,16 @@ pub fn equal_depth_summary(rows: &[BenchRow], mem_total: Option<u64>) -> String 
                 let need = finest as f64 * (finest_row.err_t_p50 / target).sqrt();
                 // Any whole level can be built: the smallest that reaches the target.
                 let level = (need.ceil() as u32).max(finest + 1);
-                let per_tri = bytes(finest_row) / (tris * (finest as f64).powi(2));
-                (level, per_tri * tris * (level as f64).powi(2) / 1e6, false)
+                (level, mb_at_level(finest_row, finest, level, direct.triangles), false)
             }
         };
         let direct_mb = bytes(direct) / 1e6;
-        let fits = match mem_total {
-            Some(m) => if mb * 1e6 < m as f64 { "yes" } else { "**no**" },
-            None => "?",
-        };
         out += &format!(
-            "| {sc} | {direct_mb:.2} | {target:.1e} | level {level}{} | {mb:.1}{} | {} | {fits} |\n",
+            "| {sc} | {direct_mb:.2} | {target:.1e} | level {level}{} | {mb:.1}{} | {} | {} |\n",
             if measured { "" } else { " (extrapolated, not built)" },
             if measured { "" } else { " (estimated)" },
-            ratio_text(mb / direct_mb.max(1e-9))
+            ratio_text(mb / direct_mb.max(1e-9)),
+            fits_text(mb, mem_total)
         );
     }
     out
