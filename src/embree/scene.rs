@@ -171,9 +171,11 @@ impl Drop for OwnedBuffer {
 pub(crate) struct OwnedGeometry(sys::RTCGeometry);
 
 impl OwnedGeometry {
-    /// Take ownership of one reference to `geom`, or report a null handle.
-    pub(crate) fn new(geom: sys::RTCGeometry, what: &'static str) -> Result<Self, EmbreeError> {
+    /// Take ownership of one reference to `geom`, just made on `device`; a null handle reports
+    /// the device's error, or else names `what` could not be made.
+    pub(crate) fn new(device: &Device, geom: sys::RTCGeometry, what: &'static str) -> Result<Self, EmbreeError> {
         if geom.is_null() {
+            device.check()?;
             return Err(EmbreeError::Null(what));
         }
         Ok(OwnedGeometry(geom))
@@ -217,10 +219,7 @@ fn new_geometry(device: &Device, kind: sys::RTCGeometryType, what: &'static str)
     // SAFETY: the device is live (held by `device`); rtcNewGeometry returns a geometry with one
     // reference, or null with the error recorded on the device.
     let geom = unsafe { sys::rtcNewGeometry(device.raw(), kind) };
-    if geom.is_null() {
-        device.check()?;
-    }
-    OwnedGeometry::new(geom, what)
+    OwnedGeometry::new(device, geom, what)
 }
 
 impl Scene {

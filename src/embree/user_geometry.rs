@@ -351,11 +351,8 @@ impl Scene {
         self.keep_alive(boxed)?;
         // SAFETY: the device is live; `ptr` points into the box the scene now owns, released
         // only after the scene (and so the geometry) is (SceneHandle field order).
-        let geom = unsafe { new_user_geometry(device.raw(), ptr, options) };
-        if geom.is_null() {
-            device.check()?;
-        }
-        let geom = OwnedGeometry::new(geom, "user geometry")?;
+        let raw = unsafe { new_user_geometry(device.raw(), ptr, options) };
+        let geom = OwnedGeometry::new(&device, raw, "user geometry")?;
         device.check()?;
         self.attach_raw(geom)
     }
