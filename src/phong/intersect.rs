@@ -280,6 +280,7 @@ fn line_conic<T: Real>(l: [T; 3], k: &Conic<T>) -> ([(T, T); 2], usize, bool) {
 }
 
 /// A unit vector pair `(n1, n2)` orthogonal to `d` and to each other (Duff et al. 2017).
+#[inline(always)]
 fn planes_for<T: Real>(d: V3<T>) -> Option<(V3<T>, V3<T>)> {
     let d = d.normalized()?;
     let sign = T::ONE.copysign(d.z);
@@ -393,13 +394,35 @@ fn newton_step<T: Real>(p: &Patch<T>, o: V3<T>, d: V3<T>, u: T, v: T, t: T) -> O
 /// no usable degenerate conic, a Newton step that diverged), so that a higher precision may
 /// decide differently.
 fn analytic_local<T: Real>(p: &Patch<T>, o: V3<T>, d: V3<T>, tmin: T, tmax: T, polish: bool) -> (Option<PatchHit<T>>, Ambiguity) {
+    match project(p, o, d) {
+        Some(pr) => analytic_projected(p, o, d, &pr, tmin, tmax, polish),
+        None => (None, Ambiguity::default()),
+    }
+}
+
+/// The patch seen along the ray: `F(u,v) = n1 · (P(u,v) - o)`, `G(u,v) = n2 · (P(u,v) - o)`,
+/// with `n1, n2` the ray's two planes. The ray meets the surface exactly where `F = G = 0`.
+/// Both solvers start from these 12 coefficients, computed once per ray and patch.
+#[derive(Clone, Copy, Debug)]
+struct Projected<T> {
+    f: Conic<T>,
+    g: Conic<T>,
+}
+
+#[inline(always)]
+fn project<T: Real>(p: &Patch<T>, o: V3<T>, d: V3<T>) -> Option<Projected<T>> {
+    let (n1, n2) = planes_for(d)?;
+    let f0 = p.f - o;
+    Some(Projected {
+        f: Conic { k: [n1.dot(p.a), n1.dot(p.b), n1.dot(p.c), n1.dot(p.d), n1.dot(p.e), n1.dot(f0)] },
+        g: Conic { k: [n2.dot(p.a), n2.dot(p.b), n2.dot(p.c), n2.dot(p.d), n2.dot(p.e), n2.dot(f0)] },
+    })
+}
+
+/// [`analytic_local`] on the ray's two conics `pr` (from [`project`]).
+fn analytic_projected<T: Real>(p: &Patch<T>, o: V3<T>, d: V3<T>, pr: &Projected<T>, tmin: T, tmax: T, polish: bool) -> (Option<PatchHit<T>>, Ambiguity) {
     let mut ambiguous = false;
-    let Some((n1, n2)) = planes_for(d) else { return (None, Ambiguity::default()) };
-    // The two conics: n_k · (P(u,v) - o) = 0.
-    let conic = |n: V3<T>| Conic {
-        k: [n.dot(p.a), n.dot(p.b), n.dot(p.c), n.dot(p.d), n.dot(p.e), n.dot(p.f - o)],
-    };
-    let (cf, cg) = (conic(n1), conic(n2));
+    let (cf, cg) = (pr.f, pr.g);
     let (nf, ng) = (cf.norm(), cg.norm());
     if nf == T::ZERO || ng == T::ZERO {
         // The ray lies in the patch's plane (a flat patch seen edge-on): no isolated hit.
@@ -586,14 +609,16 @@ struct Ambiguity {
 /// triangular `R` checks all of it. `R` is the domain enlarged by 1.25 about its centroid (larger regions fail the test on
 /// strongly curved patches more often than they save), so a
 /// Newton root in `R` but well outside the domain also proves a miss.
-fn certified_newton<T: Real>(p: &Patch<T>, o: V3<T>, d: V3<T>, tmin: T, tmax: T) -> Option<Option<PatchHit<T>>> {
-    let (n1, n2) = planes_for(d)?;
-    // Projected partials: J(u, v) = [[2 a1 u + c1 v + d1, c1 u + 2 b1 v + e1], [.. same with n2 ..]].
+///
+/// `π(u, v) - π(o)` is the pair of conics `(F, G)` of [`Projected`], so the Jacobian, the
+/// certificate and Newton's iteration all run in the plane on their 12 scalar coefficients
+/// (the analytic fallback reuses them); `t` is the surface point's projection on the ray.
+fn certified_newton<T: Real>(p: &Patch<T>, o: V3<T>, d: V3<T>, pr: &Projected<T>, tmin: T, tmax: T) -> Option<Option<PatchHit<T>>> {
+    let ([fa, fb, fc, fd, fe, ff], [ga, gb, gc, gd, ge, gf]) = (pr.f.k, pr.g.k);
+    // J(u, v) = [[F_u, F_v], [G_u, G_v]], linear in (u, v).
     let two = T::ONE + T::ONE;
     let jac = |u: T, v: T| -> [T; 4] {
-        let pu = p.a * (two * u) + p.c * v + p.d;
-        let pv = p.b * (two * v) + p.c * u + p.e;
-        [n1.dot(pu), n1.dot(pv), n2.dot(pu), n2.dot(pv)]
+        [two * fa * u + fc * v + fd, fc * u + two * fb * v + fe, two * ga * u + gc * v + gd, gc * u + two * gb * v + ge]
     };
     let third = T::from_f64(1.0 / 3.0);
     let j0 = jac(third, third);
@@ -618,32 +643,43 @@ fn certified_newton<T: Real>(p: &Patch<T>, o: V3<T>, d: V3<T>, tmin: T, tmax: T)
             return None;
         }
     }
-    // Newton from the ray's hit with the flat triangle.
-    let p0 = p.f;
-    let (e1, e2) = (p.a + p.d, p.b + p.e); // P(1,0) - P(0,0), P(0,1) - P(0,0)
-    let pv = d.cross(e2);
-    let det = e1.dot(pv);
+    // Newton on (F, G) = 0 in the plane of (u, v), from the ray's hit with the flat triangle
+    // (F and G with their quadratic terms dropped: P(1,0) - P(0,0) = a + d, P(0,1) - P(0,0) = b + e).
+    let (l00, l01, l10, l11) = (fa + fd, fb + fe, ga + gd, gb + ge);
+    let det = l00 * l11 - l01 * l10;
     if det == T::ZERO || !det.is_finite() {
         return None;
     }
     let idet = T::ONE / det;
-    let s = o - p0;
-    let q = s.cross(e1);
-    let (mut u, mut v, mut t) = (s.dot(pv) * idet, d.dot(q) * idet, e2.dot(q) * idet);
-    let d_len = d.max_abs();
+    let (mut u, mut v) = ((l01 * gf - l11 * ff) * idet, (l10 * ff - l00 * gf) * idet);
     let mut converged = false;
     for _ in 0..8 {
-        let (nu, nv, nt) = newton_step(p, o, d, u, v, t)?;
-        let step = (nu - u).abs().max((nv - v).abs()).max((nt - t).abs() * d_len);
-        (u, v, t) = (nu, nv, nt);
-        if step <= T::gamma(64) {
+        let r0 = ((fa * u + fc * v + fd) * u + (fb * v + fe) * v) + ff;
+        let r1 = ((ga * u + gc * v + gd) * u + (gb * v + ge) * v) + gf;
+        let j = jac(u, v);
+        let det = j[0] * j[3] - j[1] * j[2];
+        if det == T::ZERO || !det.is_finite() {
+            return None;
+        }
+        let idet = T::ONE / det;
+        let du = (j[1] * r1 - j[3] * r0) * idet;
+        let dv = (j[2] * r0 - j[0] * r1) * idet;
+        if !(du.is_finite() && dv.is_finite()) {
+            return None;
+        }
+        u = u + du;
+        v = v + dv;
+        if du.abs().max(dv.abs()) <= T::gamma(64) {
             converged = true;
             break;
         }
     }
+    // The ray parameter of the surface point: its projection on the ray.
+    let q = p.eval_local(u, v) - o;
+    let t = q.dot(d) / d.dot(d);
     // The root must be converged, on the ray to rounding, and inside R (with room for its error).
     let scale = T::ONE + o.max_abs() + (d * t).max_abs();
-    let res = (p.eval_local(u, v) - o - d * t).max_abs();
+    let res = (q - d * t).max_abs();
     let slack = T::from_f64(0.005);
     let in_r = u >= lo + slack && v >= lo + slack && u + v <= T::ONE - lo - slack;
     if !converged || !(res <= T::gamma(1024) * scale) || !in_r {
@@ -727,12 +763,13 @@ pub fn intersect<T: Real>(p: &Patch<T>, org: V3<T>, dir: V3<T>, tmin: T, tmax: T
     match method {
         Method::Analytic => analytic_local(p, o, d, tmin, tmax, false).0,
         Method::AnalyticPolished | Method::Certified => {
+            let pr = project(p, o, d)?;
             if method == Method::Certified {
-                if let Some(answer) = certified_newton(p, o, d, tmin, tmax) {
+                if let Some(answer) = certified_newton(p, o, d, &pr, tmin, tmax) {
                     return answer;
                 }
             }
-            let (hit, ambiguous) = analytic_local(p, o, d, tmin, tmax, true);
+            let (hit, ambiguous) = analytic_projected(p, o, d, &pr, tmin, tmax, true);
             // In f32, a miss that rested on a step within rounding (near tangency, a root at the
             // domain's edge), or a hit on an unconverged root at near tangency, is decided again
             // in f64 on the same f32 surface: the f32 solve stays the common path, f64 only
