@@ -48,8 +48,13 @@ impl BenchMethod {
 
     /// Every method, pre-tessellation at levels 1..64.
     pub fn all() -> Vec<BenchMethod> {
+        Self::all_with_levels(&DEFAULT_LEVELS)
+    }
+
+    /// Every method, pre-tessellation at `levels` (segments per edge).
+    pub fn all_with_levels(levels: &[u32]) -> Vec<BenchMethod> {
         let mut v = vec![BenchMethod::Flat];
-        v.extend([1, 2, 4, 8, 16, 32, 64].map(BenchMethod::Pretessellated));
+        v.extend(levels.iter().map(|&l| BenchMethod::Pretessellated(l)));
         v.extend([BenchMethod::DirectF32, BenchMethod::AnalyticF32, BenchMethod::DirectF64, BenchMethod::NewtonF32, BenchMethod::UserFloor, BenchMethod::Subdivision]);
         v
     }
@@ -116,8 +121,9 @@ fn patches64(m: &Mesh, alpha: f64) -> Vec<Patch<f64>> {
 /// The Phong surface evaluated at `level` segments per edge: `level²` triangles per patch.
 pub fn pretessellate(m: &Mesh, alpha: f64, level: u32) -> (Vec<Vec3>, Vec<[u32; 3]>) {
     let l = level.max(1);
-    let mut pos = Vec::new();
-    let mut idx = Vec::new();
+    let (n, lu) = (m.indices.len(), l as usize);
+    let mut pos = Vec::with_capacity(n * (lu + 1) * (lu + 2) / 2);
+    let mut idx = Vec::with_capacity(n * lu * lu);
     for patch in patches64(m, alpha) {
         // Grid vertices (i, j) with u = i/l, v = j/l, i + j <= l, row by row.
         let mut row_start = Vec::with_capacity(l as usize + 1);
@@ -141,8 +147,11 @@ pub fn pretessellate(m: &Mesh, alpha: f64, level: u32) -> (Vec<Vec3>, Vec<[u32; 
     (pos, idx)
 }
 
-/// The largest pre-tessellation the bench builds (about 2 GB of Embree BVH at the measured
-/// ~100 bytes per triangle).
+/// The pre-tessellation levels built by default.
+pub const DEFAULT_LEVELS: [u32; 7] = [1, 2, 4, 8, 16, 32, 64];
+
+/// The largest pre-tessellation the bench builds by default (about 2 GB of Embree BVH at the
+/// measured ~100 bytes per triangle); `--max-pretess-tris` raises it.
 pub const MAX_PRETESSELLATED_TRIANGLES: u64 = 20_000_000;
 
 /// The largest control mesh given to Embree's Catmull–Clark subdivision (measured ~2 kB of BVH
@@ -269,7 +278,7 @@ fn depth(scene: &Scene, rays: &[Ray], parallel: bool) -> Vec<Option<f32>> {
 }
 
 /// Run `methods` on `scene_mesh` with primary rays through a `width`×`height` camera framed on it.
-pub fn bench_scene(name: &str, m: &Mesh, methods: &[BenchMethod], width: u32, height: u32, mut progress: impl FnMut(&str)) -> anyhow::Result<Vec<BenchRow>> {
+pub fn bench_scene(name: &str, m: &Mesh, methods: &[BenchMethod], width: u32, height: u32, max_pretess_tris: u64, mut progress: impl FnMut(&str)) -> anyhow::Result<Vec<BenchRow>> {
     let device = Device::new()?;
     let (lo, hi) = m.positions.iter().fold((Vec3::splat(f32::MAX), Vec3::splat(f32::MIN)), |(a, b), p| (a.min(*p), b.max(*p)));
     let frame = Camera::frame_bounds(lo, hi, width as f32 / height as f32)
@@ -287,10 +296,15 @@ pub fn bench_scene(name: &str, m: &Mesh, methods: &[BenchMethod], width: u32, he
         progress(&format!("{name}: {}", method.name()));
         if let BenchMethod::Pretessellated(l) = method {
             let tris = m.indices.len() as u64 * (l as u64) * (l as u64);
-            if tris > MAX_PRETESSELLATED_TRIANGLES {
-                // About 100 bytes per triangle in Embree's BVH at this size (measured: 755 MB for
-                // 9.0e6 triangles): beyond the budget it would not fit beside everything else.
-                progress(&format!("{name}: {} skipped: {tris} triangles exceed the budget of {MAX_PRETESSELLATED_TRIANGLES}", method.name()));
+            let verts = m.indices.len() as u64 * (l as u64 + 1) * (l as u64 + 2) / 2;
+            if verts > u32::MAX as u64 {
+                progress(&format!("{name}: {} skipped: {verts} vertices exceed 32-bit indices", method.name()));
+                continue;
+            }
+            if tris > max_pretess_tris {
+                // About 85-100 bytes per triangle in Embree's BVH at this size (measured: 860 MB
+                // for 1.0e7 triangles): beyond the budget it would not fit beside everything else.
+                progress(&format!("{name}: {} skipped: {tris} triangles exceed the budget of {max_pretess_tris} (--max-pretess-tris)", method.name()));
                 continue;
             }
         }
@@ -437,10 +451,12 @@ fn direct_and_levels(rows: &[BenchRow]) -> Vec<(&str, &BenchRow, Vec<(u32, &Benc
         .into_iter()
         .filter_map(|sc| {
             let direct = find(rows, sc, "direct-f32")?;
-            let levels = [1u32, 2, 4, 8, 16, 32, 64, 128, 256]
+            let mut levels: Vec<(u32, &BenchRow)> = rows
                 .iter()
-                .filter_map(|l| find(rows, sc, &format!("pretess-{l}")).map(|r| (*l, r)))
+                .filter(|r| r.scene == sc)
+                .filter_map(|r| r.method.strip_prefix("pretess-")?.parse().ok().map(|l| (l, r)))
                 .collect();
+            levels.sort_by_key(|&(l, _)| l);
             Some((sc, direct, levels))
         })
         .collect()

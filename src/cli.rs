@@ -141,9 +141,15 @@ pub struct BenchArgs {
     /// Sphere sizes as segments (rings = segments / 2), comma separated.
     #[arg(long, default_value = "12,48,192", value_delimiter = ',')]
     pub spheres: Vec<u32>,
+    /// Pre-tessellation levels (segments per edge) to build, comma separated.
+    #[arg(long, default_value = "1,2,4,8,16,32,64", value_delimiter = ',')]
+    pub levels: Vec<u32>,
     /// Skip pre-tessellation levels above this.
-    #[arg(long, default_value_t = 64)]
+    #[arg(long, default_value_t = u32::MAX, hide_default_value = true)]
     pub max_level: u32,
+    /// Skip pre-tessellations of more triangles than this (about 85-100 bytes each in Embree).
+    #[arg(long, default_value_t = phongrt::bench::MAX_PRETESSELLATED_TRIANGLES)]
+    pub max_pretess_tris: u64,
 }
 
 /// Parse "x,y,z" into a vector of finite numbers.

@@ -254,7 +254,11 @@ fn apply_scene_file(world: &mut World, sf: &SceneFile) {
 fn bench_cmd(args: cli::BenchArgs) -> anyhow::Result<()> {
     use phongrt::bench::{bench_scene, equal_depth_summary, equal_silhouette_summary, mem_total, plot, plot_scaling, to_csv, to_markdown, BenchMethod};
     anyhow::ensure!(args.size >= 8 && args.size <= 4096, "--size {} is not in 8..=4096", args.size);
-    let methods: Vec<BenchMethod> = BenchMethod::all()
+    anyhow::ensure!(args.levels.iter().all(|&l| (1..=4096).contains(&l)), "--levels: each level must be in 1..=4096");
+    let mut levels = args.levels.clone();
+    levels.sort_unstable();
+    levels.dedup();
+    let methods: Vec<BenchMethod> = BenchMethod::all_with_levels(&levels)
         .into_iter()
         .filter(|m| !matches!(m, BenchMethod::Pretessellated(l) if *l > args.max_level))
         .collect();
@@ -279,7 +283,7 @@ fn bench_cmd(args: cli::BenchArgs) -> anyhow::Result<()> {
     bar.set_style(indicatif::ProgressStyle::with_template("{bar:30} {pos}/{len} {msg}").unwrap_or_else(|_| indicatif::ProgressStyle::default_bar()));
     let mut rows = Vec::new();
     for (name, m) in &scenes {
-        rows.extend(bench_scene(name, m, &methods, args.size, args.size, |msg| {
+        rows.extend(bench_scene(name, m, &methods, args.size, args.size, args.max_pretess_tris, |msg| {
             if msg.contains("skipped") {
                 bar.suspend(|| eprintln!("phongrt: {msg}"));
             }

@@ -152,3 +152,24 @@ fn bench_writes_csv_table_and_plot() {
     assert!(image::open(dir.path().join("bench.png")).is_ok());
     assert!(image::open(dir.path().join("bench-scaling.png")).is_ok());
 }
+
+#[test]
+fn bench_builds_the_levels_asked_for_within_the_triangle_budget() {
+    let dir = tempfile::tempdir().unwrap();
+    // The 8-segment sphere has 48 triangles: level 3 is 432 of them, over the budget of 200.
+    phongrt()
+        .args(["bench", "--spheres", "8", "--size", "16", "--levels", "3,1", "--max-pretess-tris", "200", "--out"])
+        .arg(dir.path())
+        .assert()
+        .success()
+        .stdout(predicate::str::contains("| pretess-1 |").and(predicate::str::contains("pretess-3").not()))
+        .stderr(predicate::str::contains("pretess-3 skipped: 432 triangles exceed the budget of 200"));
+    let csv = std::fs::read_to_string(dir.path().join("bench.csv")).unwrap();
+    assert_eq!(csv.lines().count(), 1 + 1 + 1 + 6, "{csv}");
+    phongrt()
+        .args(["bench", "--spheres", "8", "--levels", "0", "--out"])
+        .arg(dir.path())
+        .assert()
+        .failure()
+        .stderr(predicate::str::contains("--levels"));
+}

@@ -70,7 +70,7 @@ impl PhongMesh {
         }
         // Patches are independent: build them on every core (order kept, so deterministic).
         use rayon::prelude::*;
-        let built: Vec<(Patch<f32>, (Vec3, Vec3))> = indices
+        let (patches, bounds): (Vec<Patch<f32>>, Vec<(Vec3, Vec3)>) = indices
             .par_iter()
             .enumerate()
             .map(|(t, tri)| {
@@ -81,9 +81,8 @@ impl PhongMesh {
                 let (lo, hi) = patch.bounds();
                 (patch, (Vec3::from(lo), Vec3::from(hi)))
             })
-            .collect();
-        let degenerate = built.iter().filter(|(p, _)| p.degenerate).count();
-        let (patches, bounds): (Vec<_>, Vec<_>) = built.into_iter().unzip();
+            .unzip();
+        let degenerate = patches.iter().filter(|p| p.degenerate).count();
         Ok(PhongMesh { patches, bounds, degenerate, method: Method::Certified })
     }
 
