@@ -7,7 +7,7 @@ use glam::Vec3;
 use rayon::prelude::*;
 
 use crate::embree::{Device, GeometryOptions, PhongMesh, PrimHit, Ray, Scene, UserGeometryOptions, UserPrimitives, UserTriangles};
-use crate::phong::{intersect, Method, Patch, V3};
+use crate::phong::{control_points, intersect, Method, Patch, V3};
 use crate::render::Camera;
 use crate::scene::{EdgeKind, Mesh};
 
@@ -119,19 +119,56 @@ fn patches64(m: &Mesh, alpha: f64) -> Vec<Patch<f64>> {
 }
 
 /// The Phong surface evaluated at `level` segments per edge: `level²` triangles per patch.
+///
+/// Watertight: a vertex on an edge is evaluated from the edge's own quadratic Bézier curve
+/// (its two corners and its control point, which both patches beside a smooth edge compute
+/// alike), oriented from the corner whose position sorts first, and corners are the mesh's own
+/// positions. Both patches beside an edge therefore produce bit-identical vertices along it, so
+/// Embree's triangle test leaves no crack for a ray to slip through (it would be hit far behind,
+/// an error of the pre-tessellation's making, not the surface's).
 pub fn pretessellate(m: &Mesh, alpha: f64, level: u32) -> (Vec<Vec3>, Vec<[u32; 3]>) {
     let l = level.max(1);
     let (n, lu) = (m.indices.len(), l as usize);
+    let straight = straight_edges(m);
     let mut pos = Vec::with_capacity(n * (lu + 1) * (lu + 2) / 2);
     let mut idx = Vec::with_capacity(n * lu * lu);
-    for patch in patches64(m, alpha) {
+    let lf = l as f64;
+    let key = |q: Vec3| (q.x.to_bits(), q.y.to_bits(), q.z.to_bits());
+    // Point `step` of `l` along the curve from corner `a` to corner `b` with control point `c`.
+    let edge_point = |(a, pa): (Vec3, V3<f64>), (b, pb): (Vec3, V3<f64>), c: V3<f64>, step: u32| -> Vec3 {
+        let ((pa, pb), step) = if key(a) <= key(b) { ((pa, pb), step) } else { ((pb, pa), l - step) };
+        let (s, r) = (step as f64 / lf, (l - step) as f64 / lf);
+        let q = pa * (r * r) + c * (2.0 * s * r) + pb * (s * s);
+        Vec3::new(q.x as f32, q.y as f32, q.z as f32)
+    };
+    for (t, tri) in m.indices.iter().enumerate() {
+        let corner = tri.map(|i| m.positions[i as usize]);
+        let p = corner.map(|q| V3::from(q.as_dvec3()));
+        let nrm = tri.map(|i| V3::from(m.normals[i as usize].as_dvec3()).normalized().unwrap_or(V3::zero()));
+        let cp = control_points(p, nrm, alpha, straight.get(t).copied().unwrap_or([false; 3]));
+        let c = |k: usize| (corner[k], p[k]);
         // Grid vertices (i, j) with u = i/l, v = j/l, i + j <= l, row by row.
-        let mut row_start = Vec::with_capacity(l as usize + 1);
+        let mut row_start = Vec::with_capacity(lu + 1);
         for j in 0..=l {
             row_start.push(pos.len() as u32);
             for i in 0..=(l - j) {
-                let p = patch.eval(i as f64 / l as f64, j as f64 / l as f64);
-                pos.push(Vec3::new(p.x as f32, p.y as f32, p.z as f32));
+                let q = match (i, j) {
+                    (0, 0) => corner[0],
+                    (_, 0) if i == l => corner[1],
+                    (0, _) if j == l => corner[2],
+                    (_, 0) => edge_point(c(0), c(1), cp[3], i),
+                    _ if i + j == l => edge_point(c(1), c(2), cp[4], j),
+                    (0, _) => edge_point(c(2), c(0), cp[5], l - j),
+                    _ => {
+                        // Interior: the Bézier triangle (w, u, v weight p0, p1, p2).
+                        let (u, v) = (i as f64 / lf, j as f64 / lf);
+                        let w = 1.0 - u - v;
+                        let q = cp[0] * (w * w) + cp[1] * (u * u) + cp[2] * (v * v)
+                            + cp[3] * (2.0 * w * u) + cp[4] * (2.0 * u * v) + cp[5] * (2.0 * v * w);
+                        Vec3::new(q.x as f32, q.y as f32, q.z as f32)
+                    }
+                };
+                pos.push(q);
             }
         }
         let v = |i: u32, j: u32| row_start[j as usize] + i;

@@ -61,3 +61,47 @@ fn beyond_the_built_levels_the_level_is_extrapolated_and_may_not_fit() {
     let d = cells(&equal_depth_summary(&rows, Some(16_000_000_000)));
     assert_eq!(d[6], "yes", "{d:?}");
 }
+
+/// The pre-tessellation of a closed mesh is closed: every edge, keyed by the bit patterns of
+/// its two end positions, belongs to exactly two triangles (a vertex computed differently by
+/// the two patches beside an edge would leave a crack, and rays through it would be hit far
+/// behind). Vertices lie on the Phong surface.
+#[test]
+fn pretessellation_is_watertight_and_on_the_surface() {
+    use std::collections::HashMap;
+    let m = phongrt::scene::uv_sphere(12, 6, 1.0);
+    for level in [1, 3, 8] {
+        let (pos, idx) = phongrt::bench::pretessellate(&m, 1.0, level);
+        assert_eq!(idx.len(), m.indices.len() * (level * level) as usize);
+        let key = |i: u32| {
+            let q = pos[i as usize];
+            (q.x.to_bits(), q.y.to_bits(), q.z.to_bits())
+        };
+        let mut edges: HashMap<_, usize> = HashMap::new();
+        for t in &idx {
+            for k in 0..3 {
+                let (a, b) = (key(t[k]), key(t[(k + 1) % 3]));
+                *edges.entry(if a < b { (a, b) } else { (b, a) }).or_default() += 1;
+            }
+        }
+        let open = edges.values().filter(|&&c| c != 2).count();
+        assert_eq!(open, 0, "level {level}: {open} of {} edges not shared by exactly two triangles", edges.len());
+        // Patch t's vertices come row by row: (i, j) at u = i/l, v = j/l.
+        let per_patch = ((level + 1) * (level + 2) / 2) as usize;
+        let mut worst = 0f64;
+        for (t, tri) in m.indices.iter().enumerate() {
+            let p = tri.map(|i| m.positions[i as usize].as_dvec3());
+            let n = tri.map(|i| m.normals[i as usize].as_dvec3());
+            let patch: phongrt::phong::Patch<f64> = phongrt::phong::Patch::new(p, n, 1.0);
+            let mut k = t * per_patch;
+            for j in 0..=level {
+                for i in 0..=(level - j) {
+                    let q: glam::DVec3 = patch.eval(i as f64 / level as f64, j as f64 / level as f64).into();
+                    worst = worst.max((q - pos[k].as_dvec3()).length());
+                    k += 1;
+                }
+            }
+        }
+        assert!(worst < 1e-6, "level {level}: a vertex is {worst} off the Phong surface");
+    }
+}
