@@ -548,8 +548,10 @@ pub fn equal_silhouette_summary(rows: &[BenchRow], mem_total: Option<u64>) -> St
 /// depth, so the match is, if anything, generous to it (direct f32's own median is 0: most of its
 /// depths round to the f64 reference's). Beyond the levels built, the level is extrapolated from
 /// the finest one built with the error of a linear interpolant of a smooth surface, `∝ 1/level²`
-/// (the measured medians follow it: 3.9× per doubling on the head and the spheres), and its
-/// memory at that level's bytes per triangle.
+/// (the measured medians follow it: 3.9× per doubling on the head and the spheres up to level
+/// 64), and its memory at that level's bytes per triangle. Where the finest levels built show
+/// the error has stopped following it (it reaches the f32 rounding of Embree's triangle test,
+/// about 1e-7, by level 128-192 on the head and the spheres), no level is claimed.
 pub fn equal_depth_summary(rows: &[BenchRow], mem_total: Option<u64>) -> String {
     let mut out = String::from("| scene | direct f32 MB | direct f32 mean rel t error | equal-depth pre-tessellation | its MB | × direct | fits in RAM |\n|---|---|---|---|---|---|---|\n");
     for (sc, direct, levels) in direct_and_levels(rows) {
@@ -560,6 +562,24 @@ pub fn equal_depth_summary(rows: &[BenchRow], mem_total: Option<u64>) -> String 
             None => {
                 if !(target > 0.0) || !(finest_row.err_t_p50 > 0.0) {
                     continue;
+                }
+                // Has the error stopped following 1/level²? Compare the finest level with the
+                // finest one at most 2/3 as fine: falling at less than half the predicted rate
+                // means it has reached a floor (the f32 rounding of the triangle test), and no
+                // level reaches the target.
+                if let Some(&(coarse, coarse_row)) = levels.iter().rev().find(|(l, _)| *l as f64 * 1.5 <= finest as f64) {
+                    let predicted = (finest as f64 / coarse as f64).powi(2);
+                    let measured = coarse_row.err_t_p50 / finest_row.err_t_p50;
+                    if measured < 0.5 * predicted {
+                        out += &format!(
+                            "| {sc} | {:.2} | {target:.1e} | none: the median stops falling at {:.1e} (level {coarse}: {:.1e}, level {finest}: {:.1e}) | - | - | no level reaches it |\n",
+                            bytes(direct) / 1e6,
+                            finest_row.err_t_p50,
+                            coarse_row.err_t_p50,
+                            finest_row.err_t_p50,
+                        );
+                        continue;
+                    }
                 }
                 let need = finest as f64 * (finest_row.err_t_p50 / target).sqrt();
                 // Any whole level can be built: the smallest that reaches the target.

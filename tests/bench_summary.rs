@@ -105,3 +105,20 @@ fn pretessellation_is_watertight_and_on_the_surface() {
         assert!(worst < 1e-6, "level {level}: a vertex is {worst} off the Phong surface");
     }
 }
+
+#[test]
+fn an_error_that_stops_falling_is_not_extrapolated() {
+    // Error 1e-3 / level² down to a floor of 1e-7 (reached at level 100), direct 3e-8: levels
+    // 64 -> 128 -> 192 fall 2.4x and then not at all, far below the 4x and 2.25x of 1/level².
+    let mut rows = vec![row("direct-f32", 1000, 200_000, 3e-8, 0)];
+    for l in [16usize, 32, 64, 128, 192] {
+        rows.push(row(&format!("pretess-{l}"), 1000, 100 * 1000 * l * l, (1e-3 / (l * l) as f64).max(1e-7), 0));
+    }
+    let d = cells(&equal_depth_summary(&rows, Some(1 << 40)));
+    assert!(d[3].starts_with("none: the median stops falling at 1.0e-7 (level 128: 1.0e-7, level 192: 1.0e-7)"), "{d:?}");
+    assert_eq!(d[6], "no level reaches it", "{d:?}");
+    // Still on the 1/level² line at the finest level built: extrapolated as before.
+    rows.truncate(4);
+    let d = cells(&equal_depth_summary(&rows, Some(1 << 40)));
+    assert!(d[3].ends_with("(extrapolated, not built)"), "{d:?}");
+}
