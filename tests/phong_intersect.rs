@@ -128,6 +128,30 @@ fn flat_patches_are_hit() {
     }
 }
 
+/// Rays along a coordinate axis have zero direction components: the bounds and prism tests
+/// divide by them and must treat the infinities (and a NaN where the origin lies exactly on a
+/// slab face) as "no constraint" when the origin is inside, a miss when it is outside.
+#[test]
+fn axis_aligned_rays_pass_the_hull_tests() {
+    let curved = [d3(-0.5, -0.5, 1.0), d3(0.5, -0.2, 1.0), d3(-0.2, 0.5, 1.0)];
+    for normals in [[DVec3::Z; 3], curved] {
+        let p: Patch<f32> = Patch::new(P, normals, 1.0);
+        for m in [Method::Certified, Method::AnalyticPolished] {
+            // Corners and edges exactly (the origin on the faces of the x and y slabs), and inside.
+            for (x, y) in [(0.0, 0.0), (1.0, 0.0), (0.0, 1.0), (0.5, 0.0), (0.0, 0.5), (0.5, 0.5), (0.2, 0.3)] {
+                let h = intersect(&p, V3::new(x, y, 5.0), V3::new(0.0, 0.0, -1.0), 0.0, f32::INFINITY, m);
+                assert!(h.is_some(), "{m:?} down at ({x}, {y}) missed, normals {normals:?}");
+                let h = intersect(&p, V3::new(x, y, -5.0), V3::new(0.0, 0.0, 1.0), 0.0, f32::INFINITY, m);
+                assert!(h.is_some(), "{m:?} up at ({x}, {y}) missed, normals {normals:?}");
+            }
+            // Outside the triangle's x or y range: the slab alone rejects.
+            for (x, y) in [(-0.5, 0.2), (1.5, 0.2), (0.2, -0.5), (0.2, 1.5)] {
+                assert!(intersect(&p, V3::new(x, y, 5.0), V3::new(0.0, 0.0, -1.0), 0.0, f32::INFINITY, m).is_none());
+            }
+        }
+    }
+}
+
 #[test]
 fn ray_parallel_to_a_flat_patch_misses() {
     let p: Patch<f32> = Patch::new(P, [DVec3::Z; 3], 1.0);

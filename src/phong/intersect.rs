@@ -292,62 +292,44 @@ fn planes_for<T: Real>(d: V3<T>) -> Option<(V3<T>, V3<T>)> {
     ))
 }
 
-/// Slab test of the ray against the patch's local bounds over `(tmin, tmax)`.
+/// Clip the ray's `(tmin, tmax)` against the patch's local bounds (slab test) and its prism of
+/// half-spaces: whether any of it stays.
+///
+/// Branch-free: every plane is clipped and the interval compared once at the end, so the
+/// divisions overlap instead of each waiting on a data-dependent exit (half the patch tests
+/// that Embree hands over are rejected here, unpredictably). A zero direction component gives
+/// an infinite distance of the right sign (`±x / ±0`), which is no constraint when the origin is
+/// inside that slab or half-space and an empty interval when it is outside; `0 / 0` is NaN, which
+/// the comparisons below ignore (no constraint: the conservative answer).
 #[inline(always)]
-fn hits_bounds<T: Real>(p: &Patch<T>, o: V3<T>, d: V3<T>, tmin: T, tmax: T) -> bool {
-    let mut t0 = tmin;
-    let mut t1 = tmax;
-    for (oo, dd, lo, hi) in [(o.x, d.x, p.lo.x, p.hi.x), (o.y, d.y, p.lo.y, p.hi.y), (o.z, d.z, p.lo.z, p.hi.z)] {
-        if dd == T::ZERO {
-            if oo < lo || oo > hi {
-                return false;
-            }
-            continue;
-        }
-        let inv = T::ONE / dd;
-        let (mut a, mut b) = ((lo - oo) * inv, (hi - oo) * inv);
-        if a > b {
-            std::mem::swap(&mut a, &mut b);
-        }
-        // Widen by the rounding of the divisions (pbrt-v4 Bounds3::IntersectP uses 1 + 2γ(3)).
-        b = b * (T::ONE + T::gamma(3) + T::gamma(3));
-        t0 = t0.max(a);
-        t1 = t1.min(b);
-        if t0 > t1 {
-            return false;
-        }
-    }
-    true
-}
-
-/// Clip the ray against the patch's prism of half-spaces: whether any of `(tmin, tmax)` stays.
-#[inline(always)]
-fn hits_prism<T: Real>(p: &Patch<T>, o: V3<T>, d: V3<T>, tmin: T, tmax: T) -> bool {
+fn hits_hull<T: Real>(p: &Patch<T>, o: V3<T>, d: V3<T>, tmin: T, tmax: T) -> bool {
     let (mut t0, mut t1) = (tmin, tmax);
+    // Widen the slab exits by the rounding of the divisions (pbrt-v4 Bounds3::IntersectP uses 1 + 2γ(3)).
+    let widen = T::ONE + T::gamma(3) + T::gamma(3);
+    for (oo, dd, lo, hi) in [(o.x, d.x, p.lo.x, p.hi.x), (o.y, d.y, p.lo.y, p.hi.y), (o.z, d.z, p.lo.z, p.hi.z)] {
+        let inv = T::ONE / dd;
+        let (a, b) = ((lo - oo) * inv, (hi - oo) * inv);
+        let (near, far) = if a > b { (b, a) } else { (a, b) };
+        // `x.max(t0)` keeps t0 when x is NaN (Real::max compares `x > t0`), likewise `min`.
+        t0 = near.max(t0);
+        t1 = (far * widen).min(t1);
+    }
+    // The prism: leave through a plane the ray heads out of (n·d > 0), enter through the others.
+    let inf = T::from_f64(f64::INFINITY);
+    let om = o.max_abs();
     for k in 0..5 {
         let n = p.prism_n[k];
         let dist = p.prism_h[k] - n.dot(o); // >= 0 inside
         let dn = n.dot(d);
-        // Rounding of the two dot products (local frame, |o| and |d| terms): widen the plane.
-        let slack = T::gamma(8) * (T::ONE + o.max_abs() + p.prism_h[k].abs());
-        if dn == T::ZERO {
-            if dist < -slack {
-                return false;
-            }
-            continue;
-        }
-        // Widen the half-space outwards by `slack`: enter earlier, leave later.
+        // Rounding of the two dot products (local frame, |o| and |d| terms): widen the plane
+        // outwards by `slack`, entering earlier and leaving later.
+        let slack = T::gamma(8) * (T::ONE + om + p.prism_h[k].abs());
         let t = (dist + slack) / dn;
-        if dn > T::ZERO {
-            t1 = t1.min(t); // leaving through this plane
-        } else {
-            t0 = t0.max(t); // entering
-        }
-        if t0 > t1 {
-            return false;
-        }
+        let leaving = dn.is_sign_positive();
+        t1 = (if leaving { t } else { inf }).min(t1);
+        t0 = (if leaving { -inf } else { t }).max(t0);
     }
-    true
+    t0 <= t1
 }
 
 /// How far outside `[0, 1]` a barycentric may be and still count as inside: the parameter
@@ -762,7 +744,7 @@ pub fn intersect<T: Real>(p: &Patch<T>, org: V3<T>, dir: V3<T>, tmin: T, tmax: T
     if !(o.is_finite() && d.is_finite()) || d.max_abs() == T::ZERO {
         return None;
     }
-    if !hits_bounds(p, o, d, tmin, tmax) || !hits_prism(p, o, d, tmin, tmax) {
+    if !hits_hull(p, o, d, tmin, tmax) {
         return None;
     }
     match method {
@@ -815,7 +797,7 @@ mod tests {
             let p: Patch<f32> = Patch::new(c.p, c.n, c.alpha);
             let o = (V3::from(target + fnorm * 3.0).cast::<f32>() - p.center) * p.inv_scale;
             let d = V3::from(-fnorm).cast::<f32>() * p.inv_scale;
-            if !hits_prism(&p, o, d, 0.0, f32::INFINITY) {
+            if !hits_hull(&p, o, d, 0.0, f32::INFINITY) {
                 continue;
             }
             let (hit, ambiguous) = analytic_local(&p, o, d, 0.0, f32::INFINITY, true);

@@ -28,6 +28,8 @@ pub trait Real:
     fn acos(self) -> Self;
     fn cos(self) -> Self;
     fn is_finite(self) -> bool;
+    /// Whether the sign bit is clear (true for +0.0, false for -0.0).
+    fn is_sign_positive(self) -> bool;
     fn mul_add(self, a: Self, b: Self) -> Self;
     fn max(self, o: Self) -> Self {
         if self > o { self } else { o }
@@ -79,6 +81,10 @@ macro_rules! impl_real {
             #[inline(always)]
             fn cos(self) -> Self {
                 <$t>::cos(self)
+            }
+            #[inline(always)]
+            fn is_sign_positive(self) -> bool {
+                <$t>::is_sign_positive(self)
             }
             #[inline(always)]
             fn is_finite(self) -> bool {
