@@ -223,8 +223,11 @@ pub struct BenchRow {
     pub shaded_ms: f64,
 }
 
-fn build(device: &Device, m: &Mesh, method: BenchMethod) -> anyhow::Result<(Scene, usize)> {
+fn build(device: &Device, m: &Mesh, method: BenchMethod, robust: bool) -> anyhow::Result<(Scene, usize)> {
     let mut s = Scene::new(device)?;
+    if robust {
+        s.set_robust(true)?;
+    }
     let own = match method {
         BenchMethod::Flat => {
             s.attach_triangles(&m.positions, &m.indices, GeometryOptions::default())?;
@@ -314,8 +317,26 @@ fn depth(scene: &Scene, rays: &[Ray], parallel: bool) -> Vec<Option<f32>> {
     }
 }
 
-/// Run `methods` on `scene_mesh` with primary rays through a `width`×`height` camera framed on it.
-pub fn bench_scene(name: &str, m: &Mesh, methods: &[BenchMethod], width: u32, height: u32, max_pretess_tris: u64, mut progress: impl FnMut(&str)) -> anyhow::Result<Vec<BenchRow>> {
+/// What `bench_scene` measures with: image size, pre-tessellation budget, Embree's robust mode.
+#[derive(Clone, Copy, Debug)]
+pub struct BenchOptions {
+    pub width: u32,
+    pub height: u32,
+    /// Pre-tessellations of more triangles than this are skipped.
+    pub max_pretess_tris: u64,
+    /// Build every scene with `RTC_SCENE_FLAG_ROBUST` (no rays slipping between small triangles).
+    pub robust: bool,
+}
+
+impl Default for BenchOptions {
+    fn default() -> Self {
+        BenchOptions { width: 256, height: 256, max_pretess_tris: MAX_PRETESSELLATED_TRIANGLES, robust: false }
+    }
+}
+
+/// Run `methods` on `m` with primary rays through an `opts.width`×`opts.height` camera framed on it.
+pub fn bench_scene(name: &str, m: &Mesh, methods: &[BenchMethod], opts: &BenchOptions, mut progress: impl FnMut(&str)) -> anyhow::Result<Vec<BenchRow>> {
+    let BenchOptions { width, height, max_pretess_tris, robust } = *opts;
     let device = Device::new()?;
     let (lo, hi) = m.positions.iter().fold((Vec3::splat(f32::MAX), Vec3::splat(f32::MIN)), |(a, b), p| (a.min(*p), b.max(*p)));
     let frame = Camera::frame_bounds(lo, hi, width as f32 / height as f32)
@@ -325,7 +346,7 @@ pub fn bench_scene(name: &str, m: &Mesh, methods: &[BenchMethod], width: u32, he
         .map(|i| Ray::new(frame.eye, frame.direction((i % width) as f32 + 0.5, (i / width) as f32 + 0.5, width, height)))
         .collect();
     progress(&format!("{name}: reference (direct f64)"));
-    let (refscene, _) = build(&device, m, BenchMethod::DirectF64)?;
+    let (refscene, _) = build(&device, m, BenchMethod::DirectF64, robust)?;
     let reference = depth(&refscene, &rays, true);
     drop(refscene);
     let mut rows = Vec::new();
@@ -351,7 +372,7 @@ pub fn bench_scene(name: &str, m: &Mesh, methods: &[BenchMethod], width: u32, he
         }
         let before = device.memory_bytes().0;
         let t0 = Instant::now();
-        let (scene, own) = build(&device, m, method)?;
+        let (scene, own) = build(&device, m, method, robust)?;
         let build_ms = t0.elapsed().as_secs_f64() * 1e3;
         let embree_bytes = device.memory_bytes().0 - before;
         // Time the first image as a user sees it, then each rate as the best of a few runs (this

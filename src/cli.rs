@@ -150,6 +150,10 @@ pub struct BenchArgs {
     /// Skip pre-tessellations of more triangles than this (about 85-100 bytes each in Embree).
     #[arg(long, default_value_t = phongrt::bench::MAX_PRETESSELLATED_TRIANGLES)]
     pub max_pretess_tris: u64,
+    /// Build every scene in Embree's robust mode (RTC_SCENE_FLAG_ROBUST): no rays slipping between
+    /// the tiny triangles of a fine pre-tessellation, at some cost in speed.
+    #[arg(long)]
+    pub robust: bool,
 }
 
 /// Parse "x,y,z" into a vector of finite numbers.

@@ -252,7 +252,7 @@ fn apply_scene_file(world: &mut World, sf: &SceneFile) {
 }
 
 fn bench_cmd(args: cli::BenchArgs) -> anyhow::Result<()> {
-    use phongrt::bench::{bench_scene, equal_depth_summary, equal_silhouette_summary, mem_total, plot, plot_scaling, to_csv, to_markdown, BenchMethod};
+    use phongrt::bench::{bench_scene, BenchOptions, equal_depth_summary, equal_silhouette_summary, mem_total, plot, plot_scaling, to_csv, to_markdown, BenchMethod};
     anyhow::ensure!(args.size >= 8 && args.size <= 4096, "--size {} is not in 8..=4096", args.size);
     anyhow::ensure!(args.levels.iter().all(|&l| (1..=4096).contains(&l)), "--levels: each level must be in 1..=4096");
     let mut levels = args.levels.clone();
@@ -283,7 +283,8 @@ fn bench_cmd(args: cli::BenchArgs) -> anyhow::Result<()> {
     bar.set_style(indicatif::ProgressStyle::with_template("{bar:30} {pos}/{len} {msg}").unwrap_or_else(|_| indicatif::ProgressStyle::default_bar()));
     let mut rows = Vec::new();
     for (name, m) in &scenes {
-        rows.extend(bench_scene(name, m, &methods, args.size, args.size, args.max_pretess_tris, |msg| {
+        let opts = BenchOptions { width: args.size, height: args.size, max_pretess_tris: args.max_pretess_tris, robust: args.robust };
+        rows.extend(bench_scene(name, m, &methods, &opts, |msg| {
             if msg.contains("skipped") {
                 bar.suspend(|| eprintln!("phongrt: {msg}"));
             }

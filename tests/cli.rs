@@ -173,3 +173,14 @@ fn bench_builds_the_levels_asked_for_within_the_triangle_budget() {
         .failure()
         .stderr(predicate::str::contains("--levels"));
 }
+
+#[test]
+fn bench_robust_mode_builds_and_measures() {
+    let dir = tempfile::tempdir().unwrap();
+    phongrt()
+        .args(["bench", "--spheres", "8", "--size", "16", "--levels", "2", "--robust", "--out"])
+        .arg(dir.path())
+        .assert()
+        .success()
+        .stdout(predicate::str::contains("| pretess-2 |").and(predicate::str::contains("| direct-f32 |")));
+}

@@ -114,3 +114,17 @@ fn a_refused_attach_releases_what_it_made() {
     let after = device.memory_bytes().0;
     assert_eq!(after, before, "Embree memory grew by {} bytes over 6 refused attaches", after - before);
 }
+
+#[test]
+fn robust_mode_is_set_and_cleared_and_traces_the_same() {
+    let device = Device::new().unwrap();
+    let mut scene = unit_triangle_scene(&device, 1);
+    assert!(!scene.robust());
+    scene.set_robust(true).unwrap();
+    assert!(scene.robust());
+    scene.commit().unwrap();
+    let hit = scene.intersect1(Ray::new(Vec3::new(0.25, 0.25, 1.0), Vec3::new(0.0, 0.0, -1.0))).expect("hit in robust mode");
+    assert!((hit.t - 1.0).abs() < 1e-6);
+    scene.set_robust(false).unwrap();
+    assert!(!scene.robust());
+}

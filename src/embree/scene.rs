@@ -237,6 +237,30 @@ impl Scene {
         })
     }
 
+    /// Embree's robust mode (`RTC_SCENE_FLAG_ROBUST`): acceleration structures that allow robust
+    /// traversal and no optimisations that reduce arithmetic accuracy, against rays slipping
+    /// between neighbouring primitives. Takes effect at the next commit.
+    pub fn set_robust(&mut self, robust: bool) -> Result<(), EmbreeError> {
+        let raw = self.handle_mut()?.raw;
+        let device = self.inner.device.clone();
+        // SAFETY: `raw` is a live scene (held by `self`); rtcGetSceneFlags/rtcSetSceneFlags only
+        // read and set its flags, recording any error on the device, which is checked below.
+        unsafe {
+            let flags = sys::rtcGetSceneFlags(raw);
+            let robust_bit = sys::RTCSceneFlags::RTC_SCENE_FLAG_ROBUST;
+            let new = if robust { flags | robust_bit } else { sys::RTCSceneFlags(flags.0 & !robust_bit.0) };
+            sys::rtcSetSceneFlags(raw, new);
+        }
+        device.check()
+    }
+
+    /// Whether robust mode is set (see [`Scene::set_robust`]).
+    pub fn robust(&self) -> bool {
+        // SAFETY: `self.inner.raw` is a live scene (held by `self`); rtcGetSceneFlags only reads.
+        let flags = unsafe { sys::rtcGetSceneFlags(self.inner.raw) };
+        flags.0 & sys::RTCSceneFlags::RTC_SCENE_FLAG_ROBUST.0 != 0
+    }
+
     /// The device this scene lives on.
     pub fn device(&self) -> &Device {
         &self.inner.device
