@@ -254,8 +254,8 @@ unsafe extern "C" fn occluded_callback<T: UserPrimitives>(args: *const sys::RTCO
         // SAFETY: `valid` points to N ints (RTCOccludedFunctionNArguments contract).
         let valid = unsafe { std::slice::from_raw_parts(a.valid, n) };
         let ray = Soa { base: a.ray as *mut u32, n };
-        let mut buf = HitBuf([0; HIT_FIELDS * MAX_N]);
-        let hit = Soa { base: buf.0.as_mut_ptr(), n };
+        // The filter's hit buffer, zeroed only once a candidate needs it (most calls find none).
+        let mut buf: Option<HitBuf> = None;
         for (lane, &v) in valid.iter().enumerate() {
             if v != -1 {
                 continue;
@@ -265,6 +265,7 @@ unsafe extern "C" fn occluded_callback<T: UserPrimitives>(args: *const sys::RTCO
             let mut tnear = r.tnear;
             for _ in 0..4 {
                 let Some(h) = data.intersect(a.primID, r.org, r.dir, tnear, r.tfar) else { break };
+                let hit = Soa { base: buf.get_or_insert_with(|| HitBuf([0; HIT_FIELDS * MAX_N])).0.as_mut_ptr(), n };
                 // SAFETY: `hit` is our own HIT_FIELDS x n buffer; the filter sees the candidate
                 // there, with the ray's tfar set to it (restored unless accepted).
                 unsafe {
