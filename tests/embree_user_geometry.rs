@@ -192,7 +192,7 @@ fn filters_see_and_reject_candidates_as_on_triangles() {
     }
     let odd_hits = results[1].iter().filter(|(h, _)| h.is_some()).count();
     assert!(odd_hits > 1000);
-    assert!(results[1].iter().all(|(h, _)| h.map_or(true, |(p, _)| p % 2 == 1)));
+    assert!(results[1].iter().all(|(h, _)| h.is_none_or(|(p, _)| p % 2 == 1)));
     // Rays through a rejected front face reach the back face: same as with native triangles.
     let same = results[0].iter().zip(&results[1]).filter(|(a, b)| a == b).count();
     assert!(same as f64 >= 0.999 * results[0].len() as f64, "{same} of {}", results[0].len());
