@@ -735,10 +735,11 @@ fn newton_local<T: Real>(p: &Patch<T>, o: V3<T>, d: V3<T>, tmin: T, tmax: T) -> 
 /// Never NaN: bad input (non-finite, zero direction, degenerate patch) gives `None`.
 #[inline]
 pub fn intersect<T: Real>(p: &Patch<T>, org: V3<T>, dir: V3<T>, tmin: T, tmax: T, method: Method) -> Option<PatchHit<T>> {
-    if p.degenerate || !org.is_finite() || !dir.is_finite() || tmin.to_f64().is_nan() || tmax.to_f64().is_nan() {
+    if p.degenerate || tmin.to_f64().is_nan() || tmax.to_f64().is_nan() {
         return None;
     }
-    // To the local frame (t is unchanged).
+    // To the local frame (t is unchanged). A non-finite ray stays non-finite there (the frame's
+    // centre and scale are finite), so one test covers both.
     let o = (org - p.center) * p.inv_scale;
     let d = dir * p.inv_scale;
     if !(o.is_finite() && d.is_finite()) || d.max_abs() == T::ZERO {
