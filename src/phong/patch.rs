@@ -90,16 +90,35 @@ pub fn quadratic_range(k: [f64; 6]) -> (f64, f64) {
         let u = -b2 / (2.0 * a2);
         take(u, 1.0 - u);
     }
-    // Interior: [2a c; c 2b] (u, v) = -(d, e).
+    // Interior: [2a c; c 2b] (u, v) = -(d, e). Only a definite quadratic (det > 0) has an
+    // extremum there; otherwise the stationary point is a saddle (or absent) and the extremes lie
+    // on the boundary.
     let det = 4.0 * a * b - c * c;
-    if det != 0.0 {
-        let u = (-d * 2.0 * b + c * e) / det;
-        let v = (-2.0 * a * e + c * d) / det;
+    if det > 0.0 {
+        let inv = 1.0 / det;
+        let u = (-d * 2.0 * b + c * e) * inv;
+        let v = (-2.0 * a * e + c * d) * inv;
         if u > 0.0 && v > 0.0 && u + v < 1.0 {
             take(u, v);
         }
     }
     (lo, hi)
+}
+
+/// The smallest power of two `>= x`, for finite `x > 0` (`2^ceil(log2 x)`, from the bits of a
+/// normal number: no logarithm).
+fn pow2_at_least(x: f64) -> f64 {
+    const MANTISSA: u64 = (1 << 52) - 1;
+    let bits = x.to_bits();
+    if bits >> 52 == 0 || bits >> 52 >= 0x7fe {
+        // Subnormal, or within a factor 2 of overflow: the general formula.
+        return 2f64.powi(x.log2().ceil() as i32);
+    }
+    if bits & MANTISSA == 0 {
+        x
+    } else {
+        f64::from_bits(((bits >> 52) + 1) << 52)
+    }
 }
 
 impl<T: Real> Patch<T> {
@@ -126,7 +145,7 @@ impl<T: Real> Patch<T> {
         let scale = p.iter().map(|q| (*q - center).length()).fold(0.0, f64::max);
         // A power of two, so the map to the local frame and back only shifts exponents: no
         // rounding from the scale in either precision, and the same frame in f32 and f64.
-        let scale = if scale > 0.0 && scale.is_finite() { 2f64.powi(scale.log2().ceil() as i32) } else { scale };
+        let scale = if scale > 0.0 && scale.is_finite() { pow2_at_least(scale) } else { scale };
         let (scale, inv) = if degenerate || !(scale > 0.0 && scale.is_finite()) { (1.0, 1.0) } else { (scale, 1.0 / scale) };
         let q = control_points(p, n, alpha, straight).map(|c| (c - center) * inv);
         let [p0, p1, p2, p01, p12, p20] = q;
@@ -153,7 +172,15 @@ impl<T: Real> Patch<T> {
         let fnorm = (q[1] - q[0]).cross(q[2] - q[0]).normalized().unwrap_or(V3::new(0.0, 0.0, 1.0));
         let edge_out = |a: V3<f64>, b: V3<f64>| (b - a).cross(fnorm).normalized().unwrap_or(fnorm);
         let prism_n = [fnorm, -fnorm, edge_out(q[0], q[1]), edge_out(q[1], q[2]), edge_out(q[2], q[0])];
-        let prism_h = prism_n.map(|n| range(n).1 + pad);
+        // The face normal's range gives both of its planes (max along -n is -min along n).
+        let thickness = range(fnorm);
+        let prism_h = [
+            thickness.1 + pad,
+            -thickness.0 + pad,
+            range(prism_n[2]).1 + pad,
+            range(prism_n[3]).1 + pad,
+            range(prism_n[4]).1 + pad,
+        ];
         lo = lo - V3::new(pad, pad, pad);
         hi = hi + V3::new(pad, pad, pad);
         Patch {
@@ -271,5 +298,26 @@ impl<T: Real> Patch<T> {
             + self.f.abs();
         let err = terms * (self.scale * T::gamma(12)) + (p.abs() + self.center.abs()) * T::gamma(2);
         (p, err)
+    }
+}
+
+#[cfg(test)]
+mod tests {
+    use super::pow2_at_least;
+
+    #[test]
+    fn pow2_at_least_matches_the_logarithm() {
+        let mut x = 1e-300f64;
+        while x < 1e300 {
+            for y in [x, x.next_up(), x * 1.5, x.next_down()] {
+                assert_eq!(pow2_at_least(y), 2f64.powi(y.log2().ceil() as i32), "{y:e}");
+            }
+            x *= 1.7;
+        }
+        for k in -1000..1000 {
+            let p = 2f64.powi(k);
+            assert_eq!(pow2_at_least(p), p);
+            assert_eq!(pow2_at_least(p.next_up()), p * 2.0);
+        }
     }
 }
