@@ -6,14 +6,14 @@ use std::time::Instant;
 
 use anyhow::Context;
 use phongrt::embree::{Device, GeometryOptions, PhongMesh, Scene, UserGeometryOptions};
-use phongrt::scene::{load_obj, EdgeKind, LoadOptions};
+use phongrt::scene::{load_obj, LoadOptions};
 
 fn main() -> anyhow::Result<()> {
     let path = PathBuf::from(std::env::args().nth(1).context("usage: build_split MODEL.obj")?);
     let scene = load_obj(&path, &LoadOptions::default())?;
     let m = scene.meshes.first().with_context(|| format!("{}: no mesh", path.display()))?;
     let device = Device::new()?;
-    let straight: Vec<[bool; 3]> = m.edge_kinds.iter().map(|k| k.map(|e| e != EdgeKind::Smooth)).collect();
+    let straight = m.straight_edges();
     let (mut patches, mut commit, mut flat) = (f64::INFINITY, f64::INFINITY, f64::INFINITY);
     for _ in 0..5 {
         let t0 = Instant::now();

@@ -9,7 +9,7 @@ use rayon::prelude::*;
 use crate::embree::{Device, GeometryOptions, PhongMesh, PrimHit, Ray, Scene, UserGeometryOptions, UserPrimitives, UserTriangles};
 use crate::phong::{control_points, intersect, Method, Patch, V3};
 use crate::render::Camera;
-use crate::scene::{EdgeKind, Mesh};
+use crate::scene::Mesh;
 
 /// The ways of rendering a smooth surface from a low-poly mesh.
 #[derive(Clone, Copy, Debug, PartialEq)]
@@ -101,12 +101,8 @@ impl UserPrimitives for PhongMesh64 {
     }
 }
 
-fn straight_edges(m: &Mesh) -> Vec<[bool; 3]> {
-    m.edge_kinds.iter().map(|k| k.map(|e| e != EdgeKind::Smooth)).collect()
-}
-
 fn patches64(m: &Mesh, alpha: f64) -> Vec<Patch<f64>> {
-    let straight = straight_edges(m);
+    let straight = m.straight_edges();
     m.indices
         .iter()
         .enumerate()
@@ -129,7 +125,7 @@ fn patches64(m: &Mesh, alpha: f64) -> Vec<Patch<f64>> {
 pub fn pretessellate(m: &Mesh, alpha: f64, level: u32) -> (Vec<Vec3>, Vec<[u32; 3]>) {
     let l = level.max(1);
     let (n, lu) = (m.indices.len(), l as usize);
-    let straight = straight_edges(m);
+    let straight = m.straight_edges();
     let mut pos = Vec::with_capacity(n * (lu + 1) * (lu + 2) / 2);
     let mut idx = Vec::with_capacity(n * lu * lu);
     let lf = l as f64;
@@ -239,7 +235,7 @@ fn build(device: &Device, m: &Mesh, method: BenchMethod, robust: bool) -> anyhow
             0
         }
         BenchMethod::DirectF32 | BenchMethod::AnalyticF32 | BenchMethod::NewtonF32 => {
-            let straight = straight_edges(m);
+            let straight = m.straight_edges();
             let mut pm = PhongMesh::with_straight_edges(&m.positions, &m.normals, &m.indices, 1.0, Some(&straight))?;
             match method {
                 BenchMethod::NewtonF32 => pm.method = Method::Newton,

@@ -8,7 +8,7 @@ use phongrt::scene::{load_obj_text, EdgeKind, LoadOptions, Mesh};
 fn scene_of(device: &Device, meshes: &[Mesh], straight_creases: bool) -> Scene {
     let mut s = Scene::new(device).unwrap();
     for m in meshes {
-        let straight: Vec<[bool; 3]> = m.edge_kinds.iter().map(|k| k.map(|e| e != EdgeKind::Smooth)).collect();
+        let straight = m.straight_edges();
         let pm = PhongMesh::with_straight_edges(&m.positions, &m.normals, &m.indices, 1.0, straight_creases.then_some(&straight[..])).unwrap();
         s.attach_phong(pm, UserGeometryOptions::default()).unwrap();
     }

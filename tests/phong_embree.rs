@@ -3,10 +3,10 @@
 use glam::Vec3;
 use phongrt::embree::{Device, GeometryOptions, PhongMesh, Ray, Scene, UserGeometryOptions};
 use phongrt::phong::accuracy::SplitMix;
-use phongrt::scene::{uv_sphere, EdgeKind, Mesh};
+use phongrt::scene::{uv_sphere, Mesh};
 
 fn phong_scene(device: &Device, mesh: &Mesh, alpha: f32, straight_creases: bool) -> Scene {
-    let straight: Vec<[bool; 3]> = mesh.edge_kinds.iter().map(|k| k.map(|e| e != EdgeKind::Smooth)).collect();
+    let straight = mesh.straight_edges();
     let pm = PhongMesh::with_straight_edges(
         &mesh.positions,
         &mesh.normals,

@@ -191,11 +191,7 @@ impl World {
                     .attach_triangles(&mesh.positions, &mesh.indices, GeometryOptions::default())
                     .with_context(|| format!("object {:?}", mesh.name))?,
                 ObjectMode::Phong { alpha } => {
-                    let straight: Vec<[bool; 3]> = mesh
-                        .edge_kinds
-                        .iter()
-                        .map(|k| k.map(|e| e != sc::EdgeKind::Smooth))
-                        .collect();
+                    let straight = mesh.straight_edges();
                     let straight = (s.straight_creases && straight.len() == mesh.indices.len()).then_some(straight);
                     let pm = PhongMesh::with_straight_edges(&mesh.positions, &mesh.normals, &mesh.indices, alpha, straight.as_deref())
                         .with_context(|| format!("object {:?}", mesh.name))?;

@@ -69,6 +69,14 @@ pub struct Mesh {
     pub normals_source: NormalsSource,
 }
 
+impl Mesh {
+    /// Per triangle edge: whether Phong tessellation must keep it straight (every edge that is
+    /// not smooth: a crease, a border or a non-manifold edge), for watertight creases.
+    pub fn straight_edges(&self) -> Vec<[bool; 3]> {
+        self.edge_kinds.iter().map(|k| k.map(|e| e != EdgeKind::Smooth)).collect()
+    }
+}
+
 /// A material, as much of MTL as the renderer uses.
 #[derive(Clone, Debug, PartialEq)]
 pub struct Material {
