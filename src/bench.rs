@@ -129,20 +129,19 @@ pub fn pretessellate(m: &Mesh, alpha: f64, level: u32) -> (Vec<Vec3>, Vec<[u32; 
     let mut pos = Vec::with_capacity(n * (lu + 1) * (lu + 2) / 2);
     let mut idx = Vec::with_capacity(n * lu * lu);
     let lf = l as f64;
-    let key = |q: Vec3| (q.x.to_bits(), q.y.to_bits(), q.z.to_bits());
+    let to_f32 = |q: V3<f64>| Vec3::new(q.x as f32, q.y as f32, q.z as f32);
+    let key = |q: V3<f64>| (q.x.to_bits(), q.y.to_bits(), q.z.to_bits());
     // Point `step` of `l` along the curve from corner `a` to corner `b` with control point `c`.
-    let edge_point = |(a, pa): (Vec3, V3<f64>), (b, pb): (Vec3, V3<f64>), c: V3<f64>, step: u32| -> Vec3 {
-        let ((pa, pb), step) = if key(a) <= key(b) { ((pa, pb), step) } else { ((pb, pa), l - step) };
+    let edge_point = |a: V3<f64>, b: V3<f64>, c: V3<f64>, step: u32| -> Vec3 {
+        let (a, b, step) = if key(a) <= key(b) { (a, b, step) } else { (b, a, l - step) };
         let (s, r) = (step as f64 / lf, (l - step) as f64 / lf);
-        let q = pa * (r * r) + c * (2.0 * s * r) + pb * (s * s);
-        Vec3::new(q.x as f32, q.y as f32, q.z as f32)
+        to_f32(a * (r * r) + c * (2.0 * s * r) + b * (s * s))
     };
     for (t, tri) in m.indices.iter().enumerate() {
         let corner = tri.map(|i| m.positions[i as usize]);
         let p = corner.map(|q| V3::from(q.as_dvec3()));
         let nrm = tri.map(|i| V3::from(m.normals[i as usize].as_dvec3()).normalized().unwrap_or(V3::zero()));
         let cp = control_points(p, nrm, alpha, straight.get(t).copied().unwrap_or([false; 3]));
-        let c = |k: usize| (corner[k], p[k]);
         // Grid vertices (i, j) with u = i/l, v = j/l, i + j <= l, row by row.
         let mut row_start = Vec::with_capacity(lu + 1);
         for j in 0..=l {
@@ -152,16 +151,17 @@ pub fn pretessellate(m: &Mesh, alpha: f64, level: u32) -> (Vec<Vec3>, Vec<[u32; 
                     (0, 0) => corner[0],
                     (_, 0) if i == l => corner[1],
                     (0, _) if j == l => corner[2],
-                    (_, 0) => edge_point(c(0), c(1), cp[3], i),
-                    _ if i + j == l => edge_point(c(1), c(2), cp[4], j),
-                    (0, _) => edge_point(c(2), c(0), cp[5], l - j),
+                    (_, 0) => edge_point(p[0], p[1], cp[3], i),
+                    _ if i + j == l => edge_point(p[1], p[2], cp[4], j),
+                    (0, _) => edge_point(p[2], p[0], cp[5], l - j),
                     _ => {
                         // Interior: the Bézier triangle (w, u, v weight p0, p1, p2).
                         let (u, v) = (i as f64 / lf, j as f64 / lf);
                         let w = 1.0 - u - v;
-                        let q = cp[0] * (w * w) + cp[1] * (u * u) + cp[2] * (v * v)
-                            + cp[3] * (2.0 * w * u) + cp[4] * (2.0 * u * v) + cp[5] * (2.0 * v * w);
-                        Vec3::new(q.x as f32, q.y as f32, q.z as f32)
+                        to_f32(
+                            cp[0] * (w * w) + cp[1] * (u * u) + cp[2] * (v * v)
+                                + cp[3] * (2.0 * w * u) + cp[4] * (2.0 * u * v) + cp[5] * (2.0 * v * w),
+                        )
                     }
                 };
                 pos.push(q);
@@ -573,6 +573,7 @@ pub fn equal_depth_summary(rows: &[BenchRow], mem_total: Option<u64>) -> String 
     let mut out = String::from("| scene | direct f32 MB | direct f32 mean rel t error | equal-depth pre-tessellation | its MB | × direct | fits in RAM |\n|---|---|---|---|---|---|---|\n");
     for (sc, direct, levels) in direct_and_levels(rows) {
         let target = direct.err_t_mean;
+        let direct_mb = bytes(direct) / 1e6;
         let Some(&(finest, finest_row)) = levels.last() else { continue };
         let (level, mb, measured) = match levels.iter().find(|(_, r)| r.err_t_p50 <= target) {
             Some((l, r)) => (*l, bytes(r) / 1e6, true),
@@ -589,8 +590,7 @@ pub fn equal_depth_summary(rows: &[BenchRow], mem_total: Option<u64>) -> String 
                     let measured = coarse_row.err_t_p50 / finest_row.err_t_p50;
                     if measured < 0.5 * predicted {
                         out += &format!(
-                            "| {sc} | {:.2} | {target:.1e} | none: the median stops falling at {:.1e} (level {coarse}: {:.1e}, level {finest}: {:.1e}) | - | - | no level reaches it |\n",
-                            bytes(direct) / 1e6,
+                            "| {sc} | {direct_mb:.2} | {target:.1e} | none: the median stops falling at {:.1e} (level {coarse}: {:.1e}, level {finest}: {:.1e}) | - | - | no level reaches it |\n",
                             finest_row.err_t_p50,
                             coarse_row.err_t_p50,
                             finest_row.err_t_p50,
@@ -604,7 +604,6 @@ pub fn equal_depth_summary(rows: &[BenchRow], mem_total: Option<u64>) -> String 
                 (level, mb_at_level(finest_row, finest, level, direct.triangles), false)
             }
         };
-        let direct_mb = bytes(direct) / 1e6;
         out += &format!(
             "| {sc} | {direct_mb:.2} | {target:.1e} | level {level}{} | {mb:.1}{} | {} | {} |\n",
             if measured { "" } else { " (extrapolated, not built)" },
