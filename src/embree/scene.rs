@@ -242,16 +242,14 @@ impl Scene {
     /// between neighbouring primitives. Takes effect at the next commit.
     pub fn set_robust(&mut self, robust: bool) -> Result<(), EmbreeError> {
         let raw = self.handle_mut()?.raw;
-        let device = self.inner.device.clone();
+        let bit = sys::RTCSceneFlags::RTC_SCENE_FLAG_ROBUST.0;
         // SAFETY: `raw` is a live scene (held by `self`); rtcGetSceneFlags/rtcSetSceneFlags only
         // read and set its flags, recording any error on the device, which is checked below.
         unsafe {
-            let flags = sys::rtcGetSceneFlags(raw);
-            let robust_bit = sys::RTCSceneFlags::RTC_SCENE_FLAG_ROBUST;
-            let new = if robust { flags | robust_bit } else { sys::RTCSceneFlags(flags.0 & !robust_bit.0) };
-            sys::rtcSetSceneFlags(raw, new);
+            let flags = sys::rtcGetSceneFlags(raw).0;
+            sys::rtcSetSceneFlags(raw, sys::RTCSceneFlags(if robust { flags | bit } else { flags & !bit }));
         }
-        device.check()
+        self.device().check()
     }
 
     /// Whether robust mode is set (see [`Scene::set_robust`]).
