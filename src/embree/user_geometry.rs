@@ -178,62 +178,76 @@ unsafe extern "C" fn intersect_callback<T: UserPrimitives>(args: *const sys::RTC
         // RTCRayHitN of width N, `context` is the query's context, and geometryUserPtr is our `T`
         // (rtcSetGeometryIntersectFunction docs), alive while the scene is.
         let a = unsafe { &*args };
-        let n = a.N as usize;
-        if n == 0 || n > MAX_N {
-            return;
-        }
-        // SAFETY: geometryUserPtr is our `T` (see above).
-        let data = unsafe { &*(a.geometryUserPtr as *const T) };
-        // SAFETY: `valid` points to N ints (Embree's RTCIntersectFunctionNArguments contract).
-        let valid = unsafe { std::slice::from_raw_parts(a.valid, n) };
-        let ray = Soa { base: a.rayhit as *mut u32, n };
-        // SAFETY: the hit part of an RTCRayHitN starts after the 12 ray fields (rtcore_ray.h).
-        let hit = Soa { base: unsafe { ray.base.add(RAY_FIELDS * n) }, n };
-        for (lane, &v) in valid.iter().enumerate() {
-            if v != -1 {
-                continue;
-            }
-            // SAFETY: lane < n and the layout is RTCRayHitN of width n.
-            let r = unsafe { read_ray(ray, lane) };
-            let mut tnear = r.tnear;
-            // A patch can be crossed several times: if a filter rejects the nearest root, look
-            // beyond it (at most 4 roots: the resultant of a line and a quadratic patch is a quartic).
-            for _ in 0..4 {
-                // Read tfar afresh: an accepted hit shortens the ray.
-                // SAFETY: lane < n in an RTCRayHitN of width n.
-                let tfar = unsafe { ray.f(RAY_TFAR, lane) };
-                let Some(h) = data.intersect(a.primID, r.org, r.dir, tnear, tfar) else { break };
-                // SAFETY: as above; we save every field we overwrite to restore on rejection.
-                unsafe {
-                    let saved: [u32; HIT_FIELDS] = std::array::from_fn(|k| hit.u(k, lane));
-                    ray.set_f(RAY_TFAR, lane, h.t);
-                    write_hit(hit, lane, &h, a.primID, a.geomID, a.context);
-                    let mut mask = lane_mask(n, lane);
-                    let fargs = sys::RTCFilterFunctionNArguments {
-                        valid: mask.as_mut_ptr(),
-                        geometryUserPtr: a.geometryUserPtr,
-                        context: a.context,
-                        ray: a.rayhit as *mut sys::RTCRayN,
-                        hit: hit.base as *mut sys::RTCHitN,
-                        N: a.N,
-                    };
-                    // SAFETY: `fargs` describes this very ray-hit packet with one lane active;
-                    // Embree calls the geometry's and the arguments' filters, which may clear the lane.
-                    sys::rtcInvokeIntersectFilterFromGeometry(args, &fargs);
-                    if mask[lane] == -1 {
-                        break; // accepted
-                    }
-                    for (k, s) in saved.iter().enumerate() {
-                        hit.set_u(k, lane, *s);
-                    }
-                    ray.set_f(RAY_TFAR, lane, tfar);
-                }
-                tnear = h.t;
-            }
+        // One lane (rtcIntersect1, what the renderer calls) gets its own copy with the width a
+        // constant, so the SOA indexing and the lane loop fold away.
+        match a.N as usize {
+            // SAFETY: `a` is the argument block Embree passed, with its own N.
+            1 => unsafe { intersect_lanes::<T>(args, a, 1) },
+            // SAFETY: as above.
+            n @ 2..=MAX_N => unsafe { intersect_lanes::<T>(args, a, n) },
+            _ => {}
         }
     }));
     if r.is_err() {
         CALLBACK_PANICS.fetch_add(1, Ordering::Relaxed);
+    }
+}
+
+/// The body of [`intersect_callback`] for packet width `n`.
+///
+/// # Safety
+/// `a` is `*args`, valid arguments from Embree with `a.N == n` and `1 <= n <= MAX_N`, whose
+/// geometryUserPtr is a live `T`.
+#[inline(always)]
+unsafe fn intersect_lanes<T: UserPrimitives>(args: *const sys::RTCIntersectFunctionNArguments, a: &sys::RTCIntersectFunctionNArguments, n: usize) {
+    // SAFETY: geometryUserPtr is our `T` (the caller's contract).
+    let data = unsafe { &*(a.geometryUserPtr as *const T) };
+    // SAFETY: `valid` points to N ints (Embree's RTCIntersectFunctionNArguments contract).
+    let valid = unsafe { std::slice::from_raw_parts(a.valid, n) };
+    let ray = Soa { base: a.rayhit as *mut u32, n };
+    // SAFETY: the hit part of an RTCRayHitN starts after the 12 ray fields (rtcore_ray.h).
+    let hit = Soa { base: unsafe { ray.base.add(RAY_FIELDS * n) }, n };
+    for (lane, &v) in valid.iter().enumerate() {
+        if v != -1 {
+            continue;
+        }
+        // SAFETY: lane < n and the layout is RTCRayHitN of width n.
+        let r = unsafe { read_ray(ray, lane) };
+        let mut tnear = r.tnear;
+        // A patch can be crossed several times: if a filter rejects the nearest root, look
+        // beyond it (at most 4 roots: the resultant of a line and a quadratic patch is a quartic).
+        for _ in 0..4 {
+            // Read tfar afresh: an accepted hit shortens the ray.
+            // SAFETY: lane < n in an RTCRayHitN of width n.
+            let tfar = unsafe { ray.f(RAY_TFAR, lane) };
+            let Some(h) = data.intersect(a.primID, r.org, r.dir, tnear, tfar) else { break };
+            // SAFETY: as above; we save every field we overwrite to restore on rejection.
+            unsafe {
+                let saved: [u32; HIT_FIELDS] = std::array::from_fn(|k| hit.u(k, lane));
+                ray.set_f(RAY_TFAR, lane, h.t);
+                write_hit(hit, lane, &h, a.primID, a.geomID, a.context);
+                let mut mask = lane_mask(n, lane);
+                let fargs = sys::RTCFilterFunctionNArguments {
+                    valid: mask.as_mut_ptr(),
+                    geometryUserPtr: a.geometryUserPtr,
+                    context: a.context,
+                    ray: a.rayhit as *mut sys::RTCRayN,
+                    hit: hit.base as *mut sys::RTCHitN,
+                    N: a.N,
+                };
+                // SAFETY: `fargs` describes this very ray-hit packet with one lane active;
+                // Embree calls the geometry's and the arguments' filters, which may clear the lane.
+                sys::rtcInvokeIntersectFilterFromGeometry(args, &fargs);
+                if mask[lane] == -1 {
+                    break; // accepted
+                }
+                for (k, s) in saved.iter().enumerate() {
+                    hit.set_u(k, lane, *s);
+                }
+                ray.set_f(RAY_TFAR, lane, tfar);
+            }
+            tnear = h.t;
+        }
     }
 }
 
@@ -245,57 +259,70 @@ unsafe extern "C" fn occluded_callback<T: UserPrimitives>(args: *const sys::RTCO
     let r = catch_unwind(AssertUnwindSafe(|| {
         // SAFETY: as in `intersect_callback`, with `ray` an RTCRayN of width N.
         let a = unsafe { &*args };
-        let n = a.N as usize;
-        if n == 0 || n > MAX_N {
-            return;
-        }
-        // SAFETY: geometryUserPtr is our `T`, alive while the scene is.
-        let data = unsafe { &*(a.geometryUserPtr as *const T) };
-        // SAFETY: `valid` points to N ints (RTCOccludedFunctionNArguments contract).
-        let valid = unsafe { std::slice::from_raw_parts(a.valid, n) };
-        let ray = Soa { base: a.ray as *mut u32, n };
-        // The filter's hit buffer, zeroed only once a candidate needs it (most calls find none).
-        let mut buf: Option<HitBuf> = None;
-        for (lane, &v) in valid.iter().enumerate() {
-            if v != -1 {
-                continue;
-            }
-            // SAFETY: lane < n and the layout is RTCRayN of width n.
-            let r = unsafe { read_ray(ray, lane) };
-            let mut tnear = r.tnear;
-            for _ in 0..4 {
-                let Some(h) = data.intersect(a.primID, r.org, r.dir, tnear, r.tfar) else { break };
-                // Lazily: building the zeroed buffer is the cost being avoided.
-                #[allow(clippy::unnecessary_lazy_evaluations)]
-                let hit = Soa { base: buf.get_or_insert_with(|| HitBuf([0; HIT_FIELDS * MAX_N])).0.as_mut_ptr(), n };
-                // SAFETY: `hit` is our own HIT_FIELDS x n buffer; the filter sees the candidate
-                // there, with the ray's tfar set to it (restored unless accepted).
-                unsafe {
-                    ray.set_f(RAY_TFAR, lane, h.t);
-                    write_hit(hit, lane, &h, a.primID, a.geomID, a.context);
-                    let mut mask = lane_mask(n, lane);
-                    let fargs = sys::RTCFilterFunctionNArguments {
-                        valid: mask.as_mut_ptr(),
-                        geometryUserPtr: a.geometryUserPtr,
-                        context: a.context,
-                        ray: a.ray,
-                        hit: hit.base as *mut sys::RTCHitN,
-                        N: a.N,
-                    };
-                    sys::rtcInvokeOccludedFilterFromGeometry(args, &fargs);
-                    if mask[lane] == -1 {
-                        // Occluded: Embree's convention is tfar = -inf.
-                        ray.set_f(RAY_TFAR, lane, f32::NEG_INFINITY);
-                        break;
-                    }
-                    ray.set_f(RAY_TFAR, lane, r.tfar);
-                }
-                tnear = h.t;
-            }
+        // One lane (rtcOccluded1) gets its own copy, as in `intersect_callback`.
+        match a.N as usize {
+            // SAFETY: `a` is the argument block Embree passed, with its own N.
+            1 => unsafe { occluded_lanes::<T>(args, a, 1) },
+            // SAFETY: as above.
+            n @ 2..=MAX_N => unsafe { occluded_lanes::<T>(args, a, n) },
+            _ => {}
         }
     }));
     if r.is_err() {
         CALLBACK_PANICS.fetch_add(1, Ordering::Relaxed);
+    }
+}
+
+/// The body of [`occluded_callback`] for packet width `n`.
+///
+/// # Safety
+/// `a` is `*args`, valid arguments from Embree with `a.N == n` and `1 <= n <= MAX_N`, whose
+/// geometryUserPtr is a live `T`.
+#[inline(always)]
+unsafe fn occluded_lanes<T: UserPrimitives>(args: *const sys::RTCOccludedFunctionNArguments, a: &sys::RTCOccludedFunctionNArguments, n: usize) {
+    // SAFETY: geometryUserPtr is our `T`, alive while the scene is.
+    let data = unsafe { &*(a.geometryUserPtr as *const T) };
+    // SAFETY: `valid` points to N ints (RTCOccludedFunctionNArguments contract).
+    let valid = unsafe { std::slice::from_raw_parts(a.valid, n) };
+    let ray = Soa { base: a.ray as *mut u32, n };
+    // The filter's hit buffer, zeroed only once a candidate needs it (most calls find none).
+    let mut buf: Option<HitBuf> = None;
+    for (lane, &v) in valid.iter().enumerate() {
+        if v != -1 {
+            continue;
+        }
+        // SAFETY: lane < n and the layout is RTCRayN of width n.
+        let r = unsafe { read_ray(ray, lane) };
+        let mut tnear = r.tnear;
+        for _ in 0..4 {
+            let Some(h) = data.intersect(a.primID, r.org, r.dir, tnear, r.tfar) else { break };
+            // Lazily: building the zeroed buffer is the cost being avoided.
+            #[allow(clippy::unnecessary_lazy_evaluations)]
+            let hit = Soa { base: buf.get_or_insert_with(|| HitBuf([0; HIT_FIELDS * MAX_N])).0.as_mut_ptr(), n };
+            // SAFETY: `hit` is our own HIT_FIELDS x n buffer; the filter sees the candidate
+            // there, with the ray's tfar set to it (restored unless accepted).
+            unsafe {
+                ray.set_f(RAY_TFAR, lane, h.t);
+                write_hit(hit, lane, &h, a.primID, a.geomID, a.context);
+                let mut mask = lane_mask(n, lane);
+                let fargs = sys::RTCFilterFunctionNArguments {
+                    valid: mask.as_mut_ptr(),
+                    geometryUserPtr: a.geometryUserPtr,
+                    context: a.context,
+                    ray: a.ray,
+                    hit: hit.base as *mut sys::RTCHitN,
+                    N: a.N,
+                };
+                sys::rtcInvokeOccludedFilterFromGeometry(args, &fargs);
+                if mask[lane] == -1 {
+                    // Occluded: Embree's convention is tfar = -inf.
+                    ray.set_f(RAY_TFAR, lane, f32::NEG_INFINITY);
+                    break;
+                }
+                ray.set_f(RAY_TFAR, lane, r.tfar);
+            }
+            tnear = h.t;
+        }
     }
 }
 
@@ -380,6 +407,9 @@ impl UserPrimitives for UserTriangles {
         Some((a.min(b).min(c), a.max(b).max(c)))
     }
 
+    // Inlined into the callback: out of line, the ray's vectors went through the stack and the
+    // `primary_rays` floor measured 20% slower (criterion, back to back).
+    #[inline(always)]
     fn intersect(&self, prim: u32, org: Vec3, dir: Vec3, tnear: f32, tfar: f32) -> Option<PrimHit> {
         let t = self.indices.get(prim as usize)?;
         let p = |k: usize| self.positions.get(t[k] as usize).copied();
