@@ -152,6 +152,9 @@ int main(int argc, char **argv) {
 
   const int reps = 200, rounds = 3;
   double rays = (double)w * w;
+  int warm;
+  trace(native, w, reps / 10, &warm); /* warm up caches and clocks before the timed rounds */
+  trace(user, w, reps / 10, &warm);
   printf("sphere %dx%d (%d triangles), %dx%d rays, rtcIntersect1, 1 thread, best of %d passes\n", segs, rings, nt, w, w, reps);
   for (int k = 0; k < rounds; k++) {
     int hn, hu;
