@@ -497,8 +497,15 @@ fn ratio_text(r: f64) -> String {
     if r < 10.0 { format!("{r:.2}") } else { format!("{r:.0}") }
 }
 
-/// Per scene (in order): its direct f32 row and the pre-tessellation levels built, coarsest first.
-fn direct_and_levels(rows: &[BenchRow]) -> Vec<(&str, &BenchRow, Vec<(u32, &BenchRow)>)> {
+/// One scene's direct f32 row and the pre-tessellation levels built, coarsest first.
+struct SceneLevels<'a> {
+    scene: &'a str,
+    direct: &'a BenchRow,
+    levels: Vec<(u32, &'a BenchRow)>,
+}
+
+/// [`SceneLevels`] per scene, in order.
+fn direct_and_levels(rows: &[BenchRow]) -> Vec<SceneLevels<'_>> {
     let mut scenes: Vec<&str> = rows.iter().map(|r| r.scene.as_str()).collect();
     scenes.dedup();
     scenes
@@ -511,7 +518,7 @@ fn direct_and_levels(rows: &[BenchRow]) -> Vec<(&str, &BenchRow, Vec<(u32, &Benc
                 .filter_map(|r| r.method.strip_prefix("pretess-")?.parse().ok().map(|l| (l, r)))
                 .collect();
             levels.sort_by_key(|&(l, _)| l);
-            Some((sc, direct, levels))
+            Some(SceneLevels { scene: sc, direct, levels })
         })
         .collect()
 }
@@ -537,7 +544,7 @@ fn fits_text(mb: f64, mem_total: Option<u64>) -> &'static str {
 /// the bytes per triangle of the largest level built.
 pub fn equal_silhouette_summary(rows: &[BenchRow], mem_total: Option<u64>) -> String {
     let mut out = String::from("| scene | direct f32 MB | equal-silhouette pre-tessellation | its MB | × direct | fits in RAM |\n|---|---|---|---|---|---|\n");
-    for (sc, direct, levels) in direct_and_levels(rows) {
+    for SceneLevels { scene: sc, direct, levels } in direct_and_levels(rows) {
         let (level, mb, measured) = match levels.iter().find(|(_, r)| r.silhouette_px <= direct.silhouette_px) {
             Some((l, r)) => (*l, bytes(r) / 1e6, true),
             None => {
@@ -571,7 +578,7 @@ pub fn equal_silhouette_summary(rows: &[BenchRow], mem_total: Option<u64>) -> St
 /// about 1e-7, by level 128-192 on the head and the spheres), no level is claimed.
 pub fn equal_depth_summary(rows: &[BenchRow], mem_total: Option<u64>) -> String {
     let mut out = String::from("| scene | direct f32 MB | direct f32 mean rel t error | equal-depth pre-tessellation | its MB | × direct | fits in RAM |\n|---|---|---|---|---|---|---|\n");
-    for (sc, direct, levels) in direct_and_levels(rows) {
+    for SceneLevels { scene: sc, direct, levels } in direct_and_levels(rows) {
         let target = direct.err_t_mean;
         let direct_mb = bytes(direct) / 1e6;
         let Some(&(finest, finest_row)) = levels.last() else { continue };
@@ -720,7 +727,8 @@ pub fn plot_scaling(rows: &[BenchRow]) -> crate::render::Image {
         };
         Vec3::new(r, g, b) * 0.8
     };
-    let panels: [(&str, fn(&BenchRow) -> f64); 2] =
+    type Metric = fn(&BenchRow) -> f64;
+    let panels: [(&str, Metric); 2] =
         [("BVH build ms vs triangles", |r| r.build_ms), ("memory MB (Embree + own) vs triangles", |r| bytes(r) / 1e6)];
     for (k, (title, metric)) in panels.iter().enumerate() {
         let y0 = k as u32 * ph;

@@ -426,7 +426,9 @@ fn build_mesh(
     let wpos = |pid: u32| pts[pid as usize];
 
     // Drop degenerate triangles (repeated welded positions or zero area).
-    let mut tris: Vec<([u32; 3], [Option<Vec3>; 3], Option<u32>)> = Vec::new();
+    // Per triangle: welded position ids, the file's unit normal per corner (if usable), smoothing group.
+    type Tri = ([u32; 3], [Option<Vec3>; 3], Option<u32>);
+    let mut tris: Vec<Tri> = Vec::new();
     for (t, s) in tri_corners.iter().zip(&tri_smooth) {
         let pid = t.map(|c| local(c.v));
         let (a, b, c) = (wpos(pid[0]), wpos(pid[1]), wpos(pid[2]));
