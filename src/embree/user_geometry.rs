@@ -193,6 +193,32 @@ unsafe extern "C" fn intersect_callback<T: UserPrimitives>(args: *const sys::RTC
     }
 }
 
+/// Offer each active lane's candidate hits on `prim`, nearest first, to `offer(lane, ray, hit)`,
+/// which returns whether the filters accepted it. A patch can be crossed several times: after a
+/// rejected candidate, look beyond it (at most 4 roots: the resultant of a line and a quadratic
+/// patch is a quartic). A rejection restores the lane's `tfar`, so its value read here holds.
+///
+/// # Safety
+/// `ray` must be an RTCRayN (or the ray part of an RTCRayHitN) of width `valid.len()`.
+#[inline(always)]
+unsafe fn for_each_candidate<T: UserPrimitives>(data: &T, prim: u32, valid: &[i32], ray: Soa, mut offer: impl FnMut(usize, &LaneRay, &PrimHit) -> bool) {
+    for (lane, &v) in valid.iter().enumerate() {
+        if v != -1 {
+            continue;
+        }
+        // SAFETY: lane < n and the layout is RTCRayN of width n (this function's contract).
+        let r = unsafe { read_ray(ray, lane) };
+        let mut tnear = r.tnear;
+        for _ in 0..4 {
+            let Some(h) = data.intersect(prim, r.org, r.dir, tnear, r.tfar) else { break };
+            if offer(lane, &r, &h) {
+                break;
+            }
+            tnear = h.t;
+        }
+    }
+}
+
 /// The body of [`intersect_callback`] for packet width `n`.
 ///
 /// # Safety
@@ -207,48 +233,37 @@ unsafe fn intersect_lanes<T: UserPrimitives>(args: *const sys::RTCIntersectFunct
     let ray = Soa { base: a.rayhit as *mut u32, n };
     // SAFETY: the hit part of an RTCRayHitN starts after the 12 ray fields (rtcore_ray.h).
     let hit = Soa { base: unsafe { ray.base.add(RAY_FIELDS * n) }, n };
-    for (lane, &v) in valid.iter().enumerate() {
-        if v != -1 {
-            continue;
-        }
-        // SAFETY: lane < n and the layout is RTCRayHitN of width n.
-        let r = unsafe { read_ray(ray, lane) };
-        let mut tnear = r.tnear;
-        // A patch can be crossed several times: if a filter rejects the nearest root, look
-        // beyond it (at most 4 roots: the resultant of a line and a quadratic patch is a quartic).
-        for _ in 0..4 {
-            // Read tfar afresh: an accepted hit shortens the ray.
-            // SAFETY: lane < n in an RTCRayHitN of width n.
-            let tfar = unsafe { ray.f(RAY_TFAR, lane) };
-            let Some(h) = data.intersect(a.primID, r.org, r.dir, tnear, tfar) else { break };
-            // SAFETY: as above; we save every field we overwrite to restore on rejection.
-            unsafe {
-                let saved: [u32; HIT_FIELDS] = std::array::from_fn(|k| hit.u(k, lane));
-                ray.set_f(RAY_TFAR, lane, h.t);
-                write_hit(hit, lane, &h, a.primID, a.geomID, a.context);
-                let mut mask = lane_mask(n, lane);
-                let fargs = sys::RTCFilterFunctionNArguments {
-                    valid: mask.as_mut_ptr(),
-                    geometryUserPtr: a.geometryUserPtr,
-                    context: a.context,
-                    ray: a.rayhit as *mut sys::RTCRayN,
-                    hit: hit.base as *mut sys::RTCHitN,
-                    N: a.N,
-                };
-                // SAFETY: `fargs` describes this very ray-hit packet with one lane active;
-                // Embree calls the geometry's and the arguments' filters, which may clear the lane.
-                sys::rtcInvokeIntersectFilterFromGeometry(args, &fargs);
-                if mask[lane] == -1 {
-                    break; // accepted
-                }
-                for (k, s) in saved.iter().enumerate() {
-                    hit.set_u(k, lane, *s);
-                }
-                ray.set_f(RAY_TFAR, lane, tfar);
+    let offer = |lane: usize, r: &LaneRay, h: &PrimHit| {
+        // SAFETY: lane < n in an RTCRayHitN of width n; we save every field we overwrite to
+        // restore on rejection.
+        unsafe {
+            let saved: [u32; HIT_FIELDS] = std::array::from_fn(|k| hit.u(k, lane));
+            ray.set_f(RAY_TFAR, lane, h.t);
+            write_hit(hit, lane, h, a.primID, a.geomID, a.context);
+            let mut mask = lane_mask(n, lane);
+            let fargs = sys::RTCFilterFunctionNArguments {
+                valid: mask.as_mut_ptr(),
+                geometryUserPtr: a.geometryUserPtr,
+                context: a.context,
+                ray: a.rayhit as *mut sys::RTCRayN,
+                hit: hit.base as *mut sys::RTCHitN,
+                N: a.N,
+            };
+            // SAFETY: `fargs` describes this very ray-hit packet with one lane active;
+            // Embree calls the geometry's and the arguments' filters, which may clear the lane.
+            sys::rtcInvokeIntersectFilterFromGeometry(args, &fargs);
+            if mask[lane] == -1 {
+                return true; // accepted
             }
-            tnear = h.t;
+            for (k, s) in saved.iter().enumerate() {
+                hit.set_u(k, lane, *s);
+            }
+            ray.set_f(RAY_TFAR, lane, r.tfar);
+            false
         }
-    }
+    };
+    // SAFETY: `ray` is the ray part of the packet Embree passed, of width n.
+    unsafe { for_each_candidate(data, a.primID, valid, ray, offer) }
 }
 
 /// A stack RTCHitN of up to 16 lanes with the alignment Embree's packet types use.
@@ -287,43 +302,36 @@ unsafe fn occluded_lanes<T: UserPrimitives>(args: *const sys::RTCOccludedFunctio
     let ray = Soa { base: a.ray as *mut u32, n };
     // The filter's hit buffer, zeroed only once a candidate needs it (most calls find none).
     let mut buf: Option<HitBuf> = None;
-    for (lane, &v) in valid.iter().enumerate() {
-        if v != -1 {
-            continue;
-        }
-        // SAFETY: lane < n and the layout is RTCRayN of width n.
-        let r = unsafe { read_ray(ray, lane) };
-        let mut tnear = r.tnear;
-        for _ in 0..4 {
-            let Some(h) = data.intersect(a.primID, r.org, r.dir, tnear, r.tfar) else { break };
-            // Lazily: building the zeroed buffer is the cost being avoided.
-            #[allow(clippy::unnecessary_lazy_evaluations)]
-            let hit = Soa { base: buf.get_or_insert_with(|| HitBuf([0; HIT_FIELDS * MAX_N])).0.as_mut_ptr(), n };
-            // SAFETY: `hit` is our own HIT_FIELDS x n buffer; the filter sees the candidate
-            // there, with the ray's tfar set to it (restored unless accepted).
-            unsafe {
-                ray.set_f(RAY_TFAR, lane, h.t);
-                write_hit(hit, lane, &h, a.primID, a.geomID, a.context);
-                let mut mask = lane_mask(n, lane);
-                let fargs = sys::RTCFilterFunctionNArguments {
-                    valid: mask.as_mut_ptr(),
-                    geometryUserPtr: a.geometryUserPtr,
-                    context: a.context,
-                    ray: a.ray,
-                    hit: hit.base as *mut sys::RTCHitN,
-                    N: a.N,
-                };
-                sys::rtcInvokeOccludedFilterFromGeometry(args, &fargs);
-                if mask[lane] == -1 {
-                    // Occluded: Embree's convention is tfar = -inf.
-                    ray.set_f(RAY_TFAR, lane, f32::NEG_INFINITY);
-                    break;
-                }
-                ray.set_f(RAY_TFAR, lane, r.tfar);
+    let offer = |lane: usize, r: &LaneRay, h: &PrimHit| {
+        // Lazily: building the zeroed buffer is the cost being avoided.
+        #[allow(clippy::unnecessary_lazy_evaluations)]
+        let hit = Soa { base: buf.get_or_insert_with(|| HitBuf([0; HIT_FIELDS * MAX_N])).0.as_mut_ptr(), n };
+        // SAFETY: `hit` is our own HIT_FIELDS x n buffer; the filter sees the candidate
+        // there, with the ray's tfar set to it (restored unless accepted).
+        unsafe {
+            ray.set_f(RAY_TFAR, lane, h.t);
+            write_hit(hit, lane, h, a.primID, a.geomID, a.context);
+            let mut mask = lane_mask(n, lane);
+            let fargs = sys::RTCFilterFunctionNArguments {
+                valid: mask.as_mut_ptr(),
+                geometryUserPtr: a.geometryUserPtr,
+                context: a.context,
+                ray: a.ray,
+                hit: hit.base as *mut sys::RTCHitN,
+                N: a.N,
+            };
+            sys::rtcInvokeOccludedFilterFromGeometry(args, &fargs);
+            if mask[lane] == -1 {
+                // Occluded: Embree's convention is tfar = -inf.
+                ray.set_f(RAY_TFAR, lane, f32::NEG_INFINITY);
+                return true;
             }
-            tnear = h.t;
+            ray.set_f(RAY_TFAR, lane, r.tfar);
+            false
         }
-    }
+    };
+    // SAFETY: `ray` is the ray part of the packet Embree passed, of width n.
+    unsafe { for_each_candidate(data, a.primID, valid, ray, offer) }
 }
 
 /// Options for a user geometry.
