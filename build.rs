@@ -24,11 +24,7 @@ fn lib_dir_of(prefix: &Path) -> Option<PathBuf> {
     ["lib", "lib64", "lib/x86_64-linux-gnu", "lib/aarch64-linux-gnu"]
         .iter()
         .map(|d| prefix.join(d))
-        .find(|d| {
-            ["libembree4.so", "libembree4.dylib", "embree4.lib"]
-                .iter()
-                .any(|f| d.join(f).exists())
-        })
+        .find(|d| ["libembree4.so", "libembree4.dylib", "embree4.lib"].iter().any(|f| d.join(f).exists()))
 }
 
 fn from_prefix(prefix: &Path, how: &str) -> Option<Embree> {
@@ -36,11 +32,7 @@ fn from_prefix(prefix: &Path, how: &str) -> Option<Embree> {
     if !has_headers(&include_dir) {
         return None;
     }
-    Some(Embree {
-        include_dir,
-        lib_dir: lib_dir_of(prefix),
-        how: format!("{how} ({})", prefix.display()),
-    })
+    Some(Embree { include_dir, lib_dir: lib_dir_of(prefix), how: format!("{how} ({})", prefix.display()) })
 }
 
 fn cache_dir() -> Option<PathBuf> {
@@ -65,11 +57,7 @@ fn find_embree() -> Result<Embree, String> {
         });
     }
     // 2. pkg-config.
-    if let Ok(lib) = pkg_config::Config::new()
-        .atleast_version("4.0")
-        .cargo_metadata(false)
-        .probe("embree4")
-    {
+    if let Ok(lib) = pkg_config::Config::new().atleast_version("4.0").cargo_metadata(false).probe("embree4") {
         if let Some(inc) = lib.include_paths.iter().find(|p| has_headers(p)) {
             return Ok(Embree {
                 include_dir: inc.clone(),
@@ -117,7 +105,10 @@ fn main() {
     };
     let rtcore = embree.include_dir.join("embree4").join("rtcore.h");
     println!("cargo:rerun-if-changed={}", rtcore.display());
-    println!("cargo:rerun-if-changed={}", embree.include_dir.join("embree4").join("rtcore_config.h").display());
+    println!(
+        "cargo:rerun-if-changed={}",
+        embree.include_dir.join("embree4").join("rtcore_config.h").display()
+    );
     println!("cargo:warning=phongrt: using Embree 4 from {}", embree.how);
 
     // Link, with an rpath so target/*/phongrt and the test binaries run without LD_LIBRARY_PATH.
@@ -152,7 +143,5 @@ fn main() {
         .generate()
         .unwrap_or_else(|e| panic!("bindgen failed on {}: {e}", rtcore.display()));
     let out = PathBuf::from(env::var("OUT_DIR").expect("cargo sets OUT_DIR")).join("embree4.rs");
-    bindings
-        .write_to_file(&out)
-        .unwrap_or_else(|e| panic!("cannot write {}: {e}", out.display()));
+    bindings.write_to_file(&out).unwrap_or_else(|e| panic!("cannot write {}: {e}", out.display()));
 }

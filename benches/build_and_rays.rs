@@ -6,7 +6,9 @@ use std::path::Path;
 use std::time::Instant;
 
 use glam::Vec3;
-use phongrt::embree::{set_flush_denormals, Device, GeometryOptions, PhongMesh, Ray, Scene, UserGeometryOptions};
+use phongrt::embree::{
+    set_flush_denormals, Device, GeometryOptions, PhongMesh, Ray, Scene, UserGeometryOptions,
+};
 use phongrt::render::Camera;
 use phongrt::scene::{load_obj, uv_sphere, LoadOptions, Mesh};
 
@@ -47,10 +49,15 @@ fn main() {
             println!("skipped {name}: {} is absent", p.display());
         }
     }
-    println!("| model | triangles | mode | build ms | Embree bytes | own bytes | primary Mrays/s (1 thread) |");
+    println!(
+        "| model | triangles | mode | build ms | Embree bytes | own bytes | primary Mrays/s (1 thread) |"
+    );
     println!("|---|---|---|---|---|---|---|");
     for (name, m) in &models {
-        let (lo, hi) = m.positions.iter().fold((Vec3::splat(f32::MAX), Vec3::splat(f32::MIN)), |(a, b), p| (a.min(*p), b.max(*p)));
+        let (lo, hi) = m
+            .positions
+            .iter()
+            .fold((Vec3::splat(f32::MAX), Vec3::splat(f32::MIN)), |(a, b), p| (a.min(*p), b.max(*p)));
         let frame = Camera::frame_bounds(lo, hi, 1.0).frame(1.0).unwrap();
         let (w, h) = (256u32, 256u32);
         let rays: Vec<Ray> = (0..w * h)

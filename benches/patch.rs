@@ -23,7 +23,12 @@ fn cases<T: Real>(hit: bool) -> Vec<(Patch<T>, V3<T>, V3<T>)> {
 fn bench_t<T: Real>(c: &mut Criterion, name: &str) {
     for hit in [true, false] {
         let cs = cases::<T>(hit);
-        for (mname, m) in [("analytic", Method::Analytic), ("analytic_polished", Method::AnalyticPolished), ("newton", Method::Newton), ("certified", Method::Certified)] {
+        for (mname, m) in [
+            ("analytic", Method::Analytic),
+            ("analytic_polished", Method::AnalyticPolished),
+            ("newton", Method::Newton),
+            ("certified", Method::Certified),
+        ] {
             c.bench_function(&format!("{name}/{mname}/{}", if hit { "hit" } else { "miss" }), |b| {
                 b.iter(|| {
                     let mut n = 0;

@@ -3,7 +3,9 @@
 //! `cargo bench --bench primary_rays` prints ns per ray; Mrays/s = 1000 / ns.
 use criterion::{criterion_group, criterion_main, Criterion, Throughput};
 use glam::Vec3;
-use phongrt::embree::{set_flush_denormals, Device, GeometryOptions, PhongMesh, Ray, Scene, UserGeometryOptions, UserTriangles};
+use phongrt::embree::{
+    set_flush_denormals, Device, GeometryOptions, PhongMesh, Ray, Scene, UserGeometryOptions, UserTriangles,
+};
 
 fn camera_rays(w: u32, h: u32) -> Vec<Ray> {
     let eye = Vec3::new(0.0, 0.0, 3.0);
@@ -28,16 +30,26 @@ fn bench(c: &mut Criterion) {
     native.attach_triangles(&p, &idx, GeometryOptions::default()).unwrap();
     native.commit().unwrap();
     let mut user = Scene::new(&device).unwrap();
-    user.attach_user(UserTriangles { positions: p.clone(), indices: idx.clone() }, UserGeometryOptions::default()).unwrap();
+    user.attach_user(
+        UserTriangles { positions: p.clone(), indices: idx.clone() },
+        UserGeometryOptions::default(),
+    )
+    .unwrap();
     user.commit().unwrap();
 
     let mut phong = Scene::new(&device).unwrap();
-    phong.attach_phong(PhongMesh::new(p.clone(), n.clone(), idx.clone(), 1.0).unwrap(), UserGeometryOptions::default()).unwrap();
+    phong
+        .attach_phong(
+            PhongMesh::new(p.clone(), n.clone(), idx.clone(), 1.0).unwrap(),
+            UserGeometryOptions::default(),
+        )
+        .unwrap();
     phong.commit().unwrap();
 
     let mut g = c.benchmark_group("primary_rays_sphere_12x6");
     g.throughput(Throughput::Elements(rays.len() as u64));
-    for (name, scene) in [("native_triangles", &native), ("user_triangles", &user), ("phong_direct", &phong)] {
+    for (name, scene) in [("native_triangles", &native), ("user_triangles", &user), ("phong_direct", &phong)]
+    {
         g.bench_function(name, |b| {
             b.iter(|| rays.iter().filter(|r| scene.intersect1(**r).is_some()).count())
         });

@@ -17,7 +17,8 @@ fn main() -> anyhow::Result<()> {
     let (mut patches, mut commit, mut flat) = (f64::INFINITY, f64::INFINITY, f64::INFINITY);
     for _ in 0..5 {
         let t0 = Instant::now();
-        let mesh = PhongMesh::with_straight_edges(&m.positions, &m.normals, &m.indices, 1.0, Some(&straight))?;
+        let mesh =
+            PhongMesh::with_straight_edges(&m.positions, &m.normals, &m.indices, 1.0, Some(&straight))?;
         let t1 = Instant::now();
         let mut s = Scene::new(&device)?;
         s.attach_phong(mesh, UserGeometryOptions::default())?;

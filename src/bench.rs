@@ -6,7 +6,10 @@ use std::time::Instant;
 use glam::Vec3;
 use rayon::prelude::*;
 
-use crate::embree::{Device, GeometryOptions, PhongMesh, PrimHit, Ray, Scene, UserGeometryOptions, UserPrimitives, UserTriangles};
+use crate::embree::{
+    Device, GeometryOptions, PhongMesh, PrimHit, Ray, Scene, UserGeometryOptions, UserPrimitives,
+    UserTriangles,
+};
 use crate::phong::{control_points, intersect, Method, Patch, V3};
 use crate::render::Camera;
 use crate::scene::Mesh;
@@ -55,7 +58,14 @@ impl BenchMethod {
     pub fn all_with_levels(levels: &[u32]) -> Vec<BenchMethod> {
         let mut v = vec![BenchMethod::Flat];
         v.extend(levels.iter().map(|&l| BenchMethod::Pretessellated(l)));
-        v.extend([BenchMethod::DirectF32, BenchMethod::AnalyticF32, BenchMethod::DirectF64, BenchMethod::NewtonF32, BenchMethod::UserFloor, BenchMethod::Subdivision]);
+        v.extend([
+            BenchMethod::DirectF32,
+            BenchMethod::AnalyticF32,
+            BenchMethod::DirectF64,
+            BenchMethod::NewtonF32,
+            BenchMethod::UserFloor,
+            BenchMethod::Subdivision,
+        ]);
         v
     }
 }
@@ -78,11 +88,19 @@ impl UserPrimitives for PhongMesh64 {
         // Round outwards to f32.
         let down = |x: f64| {
             let f = x as f32;
-            if f as f64 > x { f.next_down() } else { f }
+            if f as f64 > x {
+                f.next_down()
+            } else {
+                f
+            }
         };
         let up = |x: f64| {
             let f = x as f32;
-            if (f as f64) < x { f.next_up() } else { f }
+            if (f as f64) < x {
+                f.next_up()
+            } else {
+                f
+            }
         };
         Some((Vec3::new(down(lo.x), down(lo.y), down(lo.z)), Vec3::new(up(hi.x), up(hi.y), up(hi.z))))
     }
@@ -97,7 +115,12 @@ impl UserPrimitives for PhongMesh64 {
         }
         let (pu, pv) = p.partials_local(h.u, h.v);
         let ng = pu.cross(pv);
-        Some(PrimHit { t, u: h.u as f32, v: h.v as f32, ng: Vec3::new(ng.x as f32, ng.y as f32, ng.z as f32) })
+        Some(PrimHit {
+            t,
+            u: h.u as f32,
+            v: h.v as f32,
+            ng: Vec3::new(ng.x as f32, ng.y as f32, ng.z as f32),
+        })
     }
 }
 
@@ -159,8 +182,12 @@ pub fn pretessellate(m: &Mesh, alpha: f64, level: u32) -> (Vec<Vec3>, Vec<[u32; 
                         let (u, v) = (i as f64 / lf, j as f64 / lf);
                         let w = 1.0 - u - v;
                         to_f32(
-                            cp[0] * (w * w) + cp[1] * (u * u) + cp[2] * (v * v)
-                                + cp[3] * (2.0 * w * u) + cp[4] * (2.0 * u * v) + cp[5] * (2.0 * v * w),
+                            cp[0] * (w * w)
+                                + cp[1] * (u * u)
+                                + cp[2] * (v * v)
+                                + cp[3] * (2.0 * w * u)
+                                + cp[4] * (2.0 * u * v)
+                                + cp[5] * (2.0 * v * w),
                         )
                     }
                 };
@@ -236,7 +263,8 @@ fn build(device: &Device, m: &Mesh, method: BenchMethod, robust: bool) -> anyhow
         }
         BenchMethod::DirectF32 | BenchMethod::AnalyticF32 | BenchMethod::NewtonF32 => {
             let straight = m.straight_edges();
-            let mut pm = PhongMesh::with_straight_edges(&m.positions, &m.normals, &m.indices, 1.0, Some(&straight))?;
+            let mut pm =
+                PhongMesh::with_straight_edges(&m.positions, &m.normals, &m.indices, 1.0, Some(&straight))?;
             match method {
                 BenchMethod::NewtonF32 => pm.method = Method::Newton,
                 BenchMethod::AnalyticF32 => pm.method = Method::AnalyticPolished,
@@ -254,7 +282,10 @@ fn build(device: &Device, m: &Mesh, method: BenchMethod, robust: bool) -> anyhow
         }
         BenchMethod::UserFloor => {
             let own = m.positions.len() * 12 + m.indices.len() * 12;
-            s.attach_user(UserTriangles { positions: m.positions.clone(), indices: m.indices.clone() }, UserGeometryOptions::default())?;
+            s.attach_user(
+                UserTriangles { positions: m.positions.clone(), indices: m.indices.clone() },
+                UserGeometryOptions::default(),
+            )?;
             own
         }
         BenchMethod::Subdivision => {
@@ -326,20 +357,39 @@ pub struct BenchOptions {
 
 impl Default for BenchOptions {
     fn default() -> Self {
-        BenchOptions { width: 256, height: 256, max_pretess_tris: MAX_PRETESSELLATED_TRIANGLES, robust: false }
+        BenchOptions {
+            width: 256,
+            height: 256,
+            max_pretess_tris: MAX_PRETESSELLATED_TRIANGLES,
+            robust: false,
+        }
     }
 }
 
 /// Run `methods` on `m` with primary rays through an `opts.width`×`opts.height` camera framed on it.
-pub fn bench_scene(name: &str, m: &Mesh, methods: &[BenchMethod], opts: &BenchOptions, mut progress: impl FnMut(&str)) -> anyhow::Result<Vec<BenchRow>> {
+pub fn bench_scene(
+    name: &str,
+    m: &Mesh,
+    methods: &[BenchMethod],
+    opts: &BenchOptions,
+    mut progress: impl FnMut(&str),
+) -> anyhow::Result<Vec<BenchRow>> {
     let BenchOptions { width, height, max_pretess_tris, robust } = *opts;
     let device = Device::new()?;
-    let (lo, hi) = m.positions.iter().fold((Vec3::splat(f32::MAX), Vec3::splat(f32::MIN)), |(a, b), p| (a.min(*p), b.max(*p)));
+    let (lo, hi) = m
+        .positions
+        .iter()
+        .fold((Vec3::splat(f32::MAX), Vec3::splat(f32::MIN)), |(a, b), p| (a.min(*p), b.max(*p)));
     let frame = Camera::frame_bounds(lo, hi, width as f32 / height as f32)
         .frame(width as f32 / height as f32)
         .ok_or_else(|| anyhow::anyhow!("{name}: cannot frame a camera on its bounds"))?;
     let rays: Vec<Ray> = (0..width * height)
-        .map(|i| Ray::new(frame.eye, frame.direction((i % width) as f32 + 0.5, (i / width) as f32 + 0.5, width, height)))
+        .map(|i| {
+            Ray::new(
+                frame.eye,
+                frame.direction((i % width) as f32 + 0.5, (i / width) as f32 + 0.5, width, height),
+            )
+        })
         .collect();
     progress(&format!("{name}: reference (direct f64)"));
     let (refscene, _) = build(&device, m, BenchMethod::DirectF64, robust)?;
@@ -352,7 +402,10 @@ pub fn bench_scene(name: &str, m: &Mesh, methods: &[BenchMethod], opts: &BenchOp
             let tris = m.indices.len() as u64 * (l as u64) * (l as u64);
             let verts = m.indices.len() as u64 * (l as u64 + 1) * (l as u64 + 2) / 2;
             if verts > u32::MAX as u64 {
-                progress(&format!("{name}: {} skipped: {verts} vertices exceed 32-bit indices", method.name()));
+                progress(&format!(
+                    "{name}: {} skipped: {verts} vertices exceed 32-bit indices",
+                    method.name()
+                ));
                 continue;
             }
             if tris > max_pretess_tris {
@@ -363,7 +416,11 @@ pub fn bench_scene(name: &str, m: &Mesh, methods: &[BenchMethod], opts: &BenchOp
             }
         }
         if method == BenchMethod::Subdivision && m.indices.len() > MAX_SUBDIVISION_FACES {
-            progress(&format!("{name}: {} skipped: {} faces exceed the budget of {MAX_SUBDIVISION_FACES}", method.name(), m.indices.len()));
+            progress(&format!(
+                "{name}: {} skipped: {} faces exceed the budget of {MAX_SUBDIVISION_FACES}",
+                method.name(),
+                m.indices.len()
+            ));
             continue;
         }
         let before = device.memory_bytes().0;
@@ -376,13 +433,23 @@ pub fn bench_scene(name: &str, m: &Mesh, methods: &[BenchMethod], opts: &BenchOp
         let t1 = Instant::now();
         let d_all = depth(&scene, &rays, true);
         let first_s = t1.elapsed().as_secs_f64();
-        let all_s = best_of(TIMING_RUNS, || { std::hint::black_box(depth(&scene, &rays, true)); }).min(first_s);
+        let all_s = best_of(TIMING_RUNS, || {
+            std::hint::black_box(depth(&scene, &rays, true));
+        })
+        .min(first_s);
         let t2 = Instant::now();
         let d_one = depth(&scene, &rays, false);
-        let one_s = t2.elapsed().as_secs_f64().min(best_of(TIMING_RUNS - 1, || { std::hint::black_box(depth(&scene, &rays, false)); }));
+        let one_s = t2.elapsed().as_secs_f64().min(best_of(TIMING_RUNS - 1, || {
+            std::hint::black_box(depth(&scene, &rays, false));
+        }));
         debug_assert_eq!(d_all, d_one);
-        let light = (frame.up.normalize_or_zero() * 0.8 - frame.right.normalize_or_zero() * 0.5 - frame.forward * 0.6).normalize();
-        let shaded_ms = best_of(TIMING_RUNS, || { std::hint::black_box(shaded(&scene, &frame, width, height, light)); }) * 1e3;
+        let light = (frame.up.normalize_or_zero() * 0.8
+            - frame.right.normalize_or_zero() * 0.5
+            - frame.forward * 0.6)
+            .normalize();
+        let shaded_ms = best_of(TIMING_RUNS, || {
+            std::hint::black_box(shaded(&scene, &frame, width, height, light));
+        }) * 1e3;
         let (mut sum, mut max, mut n, mut sil) = (0.0f64, 0.0f64, 0usize, 0usize);
         let mut errs = Vec::with_capacity(reference.len());
         for (a, r) in d_one.iter().zip(&reference) {
@@ -434,7 +501,20 @@ pub fn to_csv(rows: &[BenchRow]) -> String {
     for r in rows {
         s += &format!(
             "{},{},{},{:.3},{},{},{:.3},{:.3},{:.3},{:.3e},{:.3e},{:.3e},{},{:.3}\n",
-            r.scene, r.triangles, r.method, r.build_ms, r.embree_bytes, r.own_bytes, r.mrays_1t, r.mrays_all, r.first_image_ms, r.err_t_mean, r.err_t_max, r.err_t_p50, r.silhouette_px, r.shaded_ms
+            r.scene,
+            r.triangles,
+            r.method,
+            r.build_ms,
+            r.embree_bytes,
+            r.own_bytes,
+            r.mrays_1t,
+            r.mrays_all,
+            r.first_image_ms,
+            r.err_t_mean,
+            r.err_t_max,
+            r.err_t_p50,
+            r.silhouette_px,
+            r.shaded_ms
         );
     }
     s
@@ -494,7 +574,11 @@ fn best_of(runs: usize, mut f: impl FnMut()) -> f64 {
 
 /// A memory ratio: two decimals below 10 (`0.31`, `4.20`), whole numbers above (`240`).
 fn ratio_text(r: f64) -> String {
-    if r < 10.0 { format!("{r:.2}") } else { format!("{r:.0}") }
+    if r < 10.0 {
+        format!("{r:.2}")
+    } else {
+        format!("{r:.0}")
+    }
 }
 
 /// One scene's direct f32 row and the pre-tessellation levels built, coarsest first.
@@ -533,7 +617,13 @@ fn mb_at_level(built: &BenchRow, built_level: u32, level: u32, triangles: usize)
 /// Whether `mb` megabytes fit in `mem_total` bytes, as a table cell.
 fn fits_text(mb: f64, mem_total: Option<u64>) -> &'static str {
     match mem_total {
-        Some(m) => if mb * 1e6 < m as f64 { "yes" } else { "**no**" },
+        Some(m) => {
+            if mb * 1e6 < m as f64 {
+                "yes"
+            } else {
+                "**no**"
+            }
+        }
         None => "?",
     }
 }
@@ -545,7 +635,8 @@ fn fits_text(mb: f64, mem_total: Option<u64>) -> &'static str {
 pub fn equal_silhouette_summary(rows: &[BenchRow], mem_total: Option<u64>) -> String {
     let mut out = String::from("| scene | direct f32 MB | equal-silhouette pre-tessellation | its MB | × direct | fits in RAM |\n|---|---|---|---|---|---|\n");
     for SceneLevels { scene: sc, direct, levels } in direct_and_levels(rows) {
-        let (level, mb, measured) = match levels.iter().find(|(_, r)| r.silhouette_px <= direct.silhouette_px) {
+        let (level, mb, measured) = match levels.iter().find(|(_, r)| r.silhouette_px <= direct.silhouette_px)
+        {
             Some((l, r)) => (*l, bytes(r) / 1e6, true),
             None => {
                 // Not reached within the budget: the next level up, at the largest built
@@ -592,7 +683,9 @@ pub fn equal_depth_summary(rows: &[BenchRow], mem_total: Option<u64>) -> String 
                 // finest one at most 2/3 as fine: falling at less than half the predicted rate
                 // means it has reached a floor (the f32 rounding of the triangle test), and no
                 // level reaches the target.
-                if let Some(&(coarse, coarse_row)) = levels.iter().rev().find(|(l, _)| *l as f64 * 1.5 <= finest as f64) {
+                if let Some(&(coarse, coarse_row)) =
+                    levels.iter().rev().find(|(l, _)| *l as f64 * 1.5 <= finest as f64)
+                {
                     let predicted = (finest as f64 / coarse as f64).powi(2);
                     let measured = coarse_row.err_t_p50 / finest_row.err_t_p50;
                     if measured < 0.5 * predicted {
@@ -650,7 +743,14 @@ pub fn plot(rows: &[BenchRow]) -> crate::render::Image {
         let rs: Vec<&BenchRow> = rows.iter().filter(|r| r.scene == *sc).collect();
         let xs: Vec<f64> = rs.iter().map(|r| (1e3 / r.mrays_1t.max(1e-9)).log10()).collect();
         let ys: Vec<f64> = rs.iter().map(|r| r.err_t_mean.max(1e-9).log10()).collect();
-        let (xmin, xmax) = (xs.iter().cloned().fold(f64::MAX, f64::min).floor(), xs.iter().cloned().fold(f64::MIN, f64::max).ceil().max(xs.iter().cloned().fold(f64::MAX, f64::min).floor() + 1.0));
+        let (xmin, xmax) = (
+            xs.iter().cloned().fold(f64::MAX, f64::min).floor(),
+            xs.iter()
+                .cloned()
+                .fold(f64::MIN, f64::max)
+                .ceil()
+                .max(xs.iter().cloned().fold(f64::MAX, f64::min).floor() + 1.0),
+        );
         let (ymin, ymax) = (-9.0f64, ys.iter().cloned().fold(-8.0, f64::max).ceil());
         let (l, r, t, b) = (70u32, pw - 20, y0 + 30, y0 + ph - 40);
         let px = |x: f64| l as f64 + (x - xmin) / (xmax - xmin) * (r - l) as f64;
@@ -682,7 +782,13 @@ pub fn plot(rows: &[BenchRow]) -> crate::render::Image {
         draw_text(&mut img, &format!("{sc}: mean rel t error vs ns per ray (1 thread)"), l, y0 + 8, 2, black);
         for (i, row) in rs.iter().enumerate() {
             let (x, y) = (px(xs[i]) as i64, py(ys[i]) as i64);
-            let c = if row.method.starts_with("direct") { Vec3::new(0.8, 0.1, 0.1) } else if row.method.starts_with("pretess") { Vec3::new(0.1, 0.3, 0.8) } else { Vec3::new(0.1, 0.6, 0.2) };
+            let c = if row.method.starts_with("direct") {
+                Vec3::new(0.8, 0.1, 0.1)
+            } else if row.method.starts_with("pretess") {
+                Vec3::new(0.1, 0.3, 0.8)
+            } else {
+                Vec3::new(0.1, 0.6, 0.2)
+            };
             for dy in -3..=3i64 {
                 for dx in -3..=3i64 {
                     let (xx, yy) = (x + dx, y + dy);
@@ -691,7 +797,14 @@ pub fn plot(rows: &[BenchRow]) -> crate::render::Image {
                     }
                 }
             }
-            draw_text(&mut img, &row.method, (x + 6).max(0) as u32, (y - 10 - 9 * (i as i64 % 2)).max(0) as u32, 1, black);
+            draw_text(
+                &mut img,
+                &row.method,
+                (x + 6).max(0) as u32,
+                (y - 10 - 9 * (i as i64 % 2)).max(0) as u32,
+                1,
+                black,
+            );
         }
     }
     img
@@ -728,11 +841,14 @@ pub fn plot_scaling(rows: &[BenchRow]) -> crate::render::Image {
         Vec3::new(r, g, b) * 0.8
     };
     type Metric = fn(&BenchRow) -> f64;
-    let panels: [(&str, Metric); 2] =
-        [("BVH build ms vs triangles", |r| r.build_ms), ("memory MB (Embree + own) vs triangles", |r| bytes(r) / 1e6)];
+    let panels: [(&str, Metric); 2] = [
+        ("BVH build ms vs triangles", |r| r.build_ms),
+        ("memory MB (Embree + own) vs triangles", |r| bytes(r) / 1e6),
+    ];
     for (k, (title, metric)) in panels.iter().enumerate() {
         let y0 = k as u32 * ph;
-        let pts: Vec<(f64, f64)> = rows.iter().map(|r| ((r.triangles as f64).log10(), metric(r).max(1e-3).log10())).collect();
+        let pts: Vec<(f64, f64)> =
+            rows.iter().map(|r| ((r.triangles as f64).log10(), metric(r).max(1e-3).log10())).collect();
         if pts.is_empty() {
             continue;
         }
@@ -770,7 +886,8 @@ pub fn plot_scaling(rows: &[BenchRow]) -> crate::render::Image {
         draw_text(&mut img, title, l, y0 + 8, 2, black);
         for (mi, m) in methods.iter().enumerate() {
             let c = colour(mi);
-            let mut series: Vec<(f64, f64)> = rows.iter().zip(&pts).filter(|(r, _)| r.method == *m).map(|(_, p)| *p).collect();
+            let mut series: Vec<(f64, f64)> =
+                rows.iter().zip(&pts).filter(|(r, _)| r.method == *m).map(|(_, p)| *p).collect();
             series.sort_by(|a, b| a.0.total_cmp(&b.0));
             let to_px = |p: (f64, f64)| (px(p.0), py(p.1));
             for w in series.windows(2) {

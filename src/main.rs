@@ -12,7 +12,9 @@ use glam::Vec3;
 use cli::{Cli, Command, InfoArgs, Mode, RenderArgs};
 use phongrt::embree::{self, Device};
 use phongrt::render::scene_file::{LightSection, ModeName, SceneFile};
-use phongrt::render::{self, AmbientOcclusion, Camera, Light, ObjectMode, ObjectSettings, RenderOutput, RenderSettings, World};
+use phongrt::render::{
+    self, AmbientOcclusion, Camera, Light, ObjectMode, ObjectSettings, RenderOutput, RenderSettings, World,
+};
 use phongrt::scene::{self, LoadOptions};
 
 fn main() -> ExitCode {
@@ -43,7 +45,10 @@ fn run(cli: Cli) -> anyhow::Result<()> {
 }
 
 fn load_options(crease_angle: f32) -> anyhow::Result<LoadOptions> {
-    anyhow::ensure!((0.0..=180.0).contains(&crease_angle), "--crease-angle {crease_angle} is not in [0, 180] degrees");
+    anyhow::ensure!(
+        (0.0..=180.0).contains(&crease_angle),
+        "--crease-angle {crease_angle} is not in [0, 180] degrees"
+    );
     Ok(LoadOptions { crease_angle_deg: crease_angle, ..LoadOptions::default() })
 }
 
@@ -57,12 +62,15 @@ fn load(path: &Path, opts: &LoadOptions) -> anyhow::Result<scene::Scene> {
 
 /// `NAME=flat` or `NAME=phong[:ALPHA]`.
 fn parse_object_override(s: &str) -> anyhow::Result<(String, ObjectMode)> {
-    let (name, mode) = s.rsplit_once('=').with_context(|| format!("--object {s:?}: expected NAME=flat or NAME=phong[:ALPHA]"))?;
+    let (name, mode) = s
+        .rsplit_once('=')
+        .with_context(|| format!("--object {s:?}: expected NAME=flat or NAME=phong[:ALPHA]"))?;
     let mode = match mode.split_once(':') {
         None if mode == "flat" => ObjectMode::Flat,
         None if mode == "phong" => ObjectMode::Phong { alpha: 1.0 },
         Some(("phong", a)) => {
-            let alpha: f32 = a.parse().with_context(|| format!("--object {s:?}: alpha {a:?} is not a number"))?;
+            let alpha: f32 =
+                a.parse().with_context(|| format!("--object {s:?}: alpha {a:?} is not a number"))?;
             anyhow::ensure!((0.0..=1.0).contains(&alpha), "--object {s:?}: alpha {alpha} is not in [0, 1]");
             ObjectMode::Phong { alpha }
         }
@@ -77,7 +85,9 @@ fn render_cmd(args: RenderArgs) -> anyhow::Result<()> {
     let is_toml = args.scene.extension().is_some_and(|e| e.eq_ignore_ascii_case("toml"));
     let (obj_path, sf): (PathBuf, Option<SceneFile>) = if is_toml {
         let sf = SceneFile::load(&args.scene)?;
-        let obj = sf.obj_path(&args.scene).with_context(|| format!("{}: obj: missing (the OBJ file to render)", args.scene.display()))?;
+        let obj = sf
+            .obj_path(&args.scene)
+            .with_context(|| format!("{}: obj: missing (the OBJ file to render)", args.scene.display()))?;
         (obj, Some(sf))
     } else {
         let sf = args.scene_file.as_deref().map(SceneFile::load).transpose()?;
@@ -85,7 +95,8 @@ fn render_cmd(args: RenderArgs) -> anyhow::Result<()> {
     };
     let crease = sf.as_ref().and_then(|s| s.crease_angle).unwrap_or(args.load.crease_angle);
     let input = load(&obj_path, &load_options(crease)?)?;
-    let overrides: Vec<(String, ObjectMode)> = args.objects.iter().map(|s| parse_object_override(s)).collect::<anyhow::Result<_>>()?;
+    let overrides: Vec<(String, ObjectMode)> =
+        args.objects.iter().map(|s| parse_object_override(s)).collect::<anyhow::Result<_>>()?;
     for (name, _) in &overrides {
         anyhow::ensure!(
             name == "*" || input.meshes.iter().any(|m| m.name == *name),
@@ -130,7 +141,8 @@ fn render_cmd(args: RenderArgs) -> anyhow::Result<()> {
     let width = args.width.or(sf.as_ref().and_then(|s| s.render.width)).unwrap_or(800);
     let height = args.height.or(sf.as_ref().and_then(|s| s.render.height)).unwrap_or(600);
     let spp = args.spp.or(sf.as_ref().and_then(|s| s.render.spp)).unwrap_or(1);
-    let settings = RenderSettings { width, height, spp, threads: args.threads, progress: !args.quiet, seed: 0 };
+    let settings =
+        RenderSettings { width, height, spp, threads: args.threads, progress: !args.quiet, seed: 0 };
 
     let build = |forced: Option<ObjectMode>| -> anyhow::Result<World> {
         let mut world = World::from_scene(&device, &input, settings_for(forced))?;
@@ -220,19 +232,25 @@ fn apply_scene_file(world: &mut World, sf: &SceneFile) {
             .lights
             .iter()
             .map(|l| match *l {
-                LightSection::Directional { direction, radiance, shadows } => {
-                    Light::Directional { direction: Vec3::from(direction).normalize(), radiance: Vec3::from(radiance), shadows }
-                }
+                LightSection::Directional { direction, radiance, shadows } => Light::Directional {
+                    direction: Vec3::from(direction).normalize(),
+                    radiance: Vec3::from(radiance),
+                    shadows,
+                },
                 LightSection::Point { position, intensity, shadows } => {
                     Light::Point { position: Vec3::from(position), intensity: Vec3::from(intensity), shadows }
                 }
-                LightSection::Sphere { center, radius, intensity, samples } => {
-                    Light::Sphere { center: Vec3::from(center), radius, intensity: Vec3::from(intensity), samples }
-                }
+                LightSection::Sphere { center, radius, intensity, samples } => Light::Sphere {
+                    center: Vec3::from(center),
+                    radius,
+                    intensity: Vec3::from(intensity),
+                    samples,
+                },
             })
             .collect();
     }
-    world.ambient_occlusion = sf.ambient_occlusion.map(|a| AmbientOcclusion { samples: a.samples, distance: a.distance });
+    world.ambient_occlusion =
+        sf.ambient_occlusion.map(|a| AmbientOcclusion { samples: a.samples, distance: a.distance });
     for o in &sf.objects {
         for obj in world.objects.iter_mut().filter(|x| o.name == "*" || x.name == o.name) {
             if let Some(kd) = o.kd {
@@ -252,9 +270,15 @@ fn apply_scene_file(world: &mut World, sf: &SceneFile) {
 }
 
 fn bench_cmd(args: cli::BenchArgs) -> anyhow::Result<()> {
-    use phongrt::bench::{bench_scene, BenchOptions, equal_depth_summary, equal_silhouette_summary, mem_total, plot, plot_scaling, to_csv, to_markdown, BenchMethod};
+    use phongrt::bench::{
+        bench_scene, equal_depth_summary, equal_silhouette_summary, mem_total, plot, plot_scaling, to_csv,
+        to_markdown, BenchMethod, BenchOptions,
+    };
     anyhow::ensure!(args.size >= 8 && args.size <= 4096, "--size {} is not in 8..=4096", args.size);
-    anyhow::ensure!(args.levels.iter().all(|&l| (1..=4096).contains(&l)), "--levels: each level must be in 1..=4096");
+    anyhow::ensure!(
+        args.levels.iter().all(|&l| (1..=4096).contains(&l)),
+        "--levels: each level must be in 1..=4096"
+    );
     let mut levels = args.levels.clone();
     levels.sort_unstable();
     levels.dedup();
@@ -280,10 +304,18 @@ fn bench_cmd(args: cli::BenchArgs) -> anyhow::Result<()> {
     } else {
         indicatif::ProgressBar::hidden()
     };
-    bar.set_style(indicatif::ProgressStyle::with_template("{bar:30} {pos}/{len} {msg}").unwrap_or_else(|_| indicatif::ProgressStyle::default_bar()));
+    bar.set_style(
+        indicatif::ProgressStyle::with_template("{bar:30} {pos}/{len} {msg}")
+            .unwrap_or_else(|_| indicatif::ProgressStyle::default_bar()),
+    );
     let mut rows = Vec::new();
     for (name, m) in &scenes {
-        let opts = BenchOptions { width: args.size, height: args.size, max_pretess_tris: args.max_pretess_tris, robust: args.robust };
+        let opts = BenchOptions {
+            width: args.size,
+            height: args.size,
+            max_pretess_tris: args.max_pretess_tris,
+            robust: args.robust,
+        };
         rows.extend(bench_scene(name, m, &methods, &opts, |msg| {
             if msg.contains("skipped") {
                 bar.suspend(|| eprintln!("phongrt: {msg}"));

@@ -85,7 +85,12 @@ fn pretessellation_is_watertight_and_on_the_surface() {
             }
         }
         let open = edges.values().filter(|&&c| c != 2).count();
-        assert_eq!(open, 0, "level {level}: {open} of {} edges not shared by exactly two triangles", edges.len());
+        assert_eq!(
+            open,
+            0,
+            "level {level}: {open} of {} edges not shared by exactly two triangles",
+            edges.len()
+        );
         // Patch t's vertices come row by row: (i, j) at u = i/l, v = j/l.
         let per_patch = ((level + 1) * (level + 2) / 2) as usize;
         let mut worst = 0f64;
@@ -112,10 +117,19 @@ fn an_error_that_stops_falling_is_not_extrapolated() {
     // 64 -> 128 -> 192 fall 2.4x and then not at all, far below the 4x and 2.25x of 1/level².
     let mut rows = vec![row("direct-f32", 1000, 200_000, 3e-8, 0)];
     for l in [16usize, 32, 64, 128, 192] {
-        rows.push(row(&format!("pretess-{l}"), 1000, 100 * 1000 * l * l, (1e-3 / (l * l) as f64).max(1e-7), 0));
+        rows.push(row(
+            &format!("pretess-{l}"),
+            1000,
+            100 * 1000 * l * l,
+            (1e-3 / (l * l) as f64).max(1e-7),
+            0,
+        ));
     }
     let d = cells(&equal_depth_summary(&rows, Some(1 << 40)));
-    assert!(d[3].starts_with("none: the median stops falling at 1.0e-7 (level 128: 1.0e-7, level 192: 1.0e-7)"), "{d:?}");
+    assert!(
+        d[3].starts_with("none: the median stops falling at 1.0e-7 (level 128: 1.0e-7, level 192: 1.0e-7)"),
+        "{d:?}"
+    );
     assert_eq!(d[6], "no level reaches it", "{d:?}");
     // Still on the 1/level² line at the finest level built: extrapolated as before.
     rows.truncate(4);

@@ -18,7 +18,11 @@ fn c_program_mixes_triangles_phong_and_instances() {
     let root = PathBuf::from(env!("CARGO_MANIFEST_DIR"));
     let lib_dir = target_dir();
     let so = lib_dir.join("libphongrt.so");
-    assert!(so.exists(), "{} is missing: build it with `cargo build --release --lib` (scripts/test.sh does)", so.display());
+    assert!(
+        so.exists(),
+        "{} is missing: build it with `cargo build --release --lib` (scripts/test.sh does)",
+        so.display()
+    );
     let cc = std::env::var("CC").unwrap_or_else(|_| "cc".into());
     let out = tempfile::tempdir().unwrap();
     let exe = out.path().join("mixed_scene");
@@ -85,7 +89,12 @@ fn c_user_floor_matches_native_triangles() {
     assert!(run.status.success(), "user_floor failed:\n{stdout}\n{}", String::from_utf8_lossy(&run.stderr));
     // A sphere filling most of the view: some rays hit, and the callback ran.
     let line = stdout.lines().find(|l| l.starts_with("native ")).expect("no timing line");
-    let hits: u32 = line.split('(').nth(1).and_then(|s| s.split(' ').next()).and_then(|s| s.parse().ok()).expect("no hit count");
+    let hits: u32 = line
+        .split('(')
+        .nth(1)
+        .and_then(|s| s.split(' ').next())
+        .and_then(|s| s.parse().ok())
+        .expect("no hit count");
     assert!(hits > 0 && hits < 24 * 24, "{line}");
     assert!(!line.contains("0.00 callback calls"), "{line}");
 }

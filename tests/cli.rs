@@ -9,17 +9,25 @@ fn phongrt() -> Command {
 
 #[test]
 fn help_reads_well() {
-    phongrt().arg("--help").assert().success().stdout(predicate::str::contains("render").and(predicate::str::contains("info")));
-    phongrt().args(["render", "--help"]).assert().success().stdout(predicate::str::contains("--mode").and(predicate::str::contains("--compare")));
+    phongrt()
+        .arg("--help")
+        .assert()
+        .success()
+        .stdout(predicate::str::contains("render").and(predicate::str::contains("info")));
+    phongrt()
+        .args(["render", "--help"])
+        .assert()
+        .success()
+        .stdout(predicate::str::contains("--mode").and(predicate::str::contains("--compare")));
 }
 
 #[test]
 fn info_reports_embree_4_and_counts() {
-    phongrt()
-        .args(["info", "scenes/sphere_lowpoly.obj"])
-        .assert()
-        .success()
-        .stdout(predicate::str::contains("embree: 4.").and(predicate::str::contains("triangles: 120")).and(predicate::str::contains("0 crease, 0 border")));
+    phongrt().args(["info", "scenes/sphere_lowpoly.obj"]).assert().success().stdout(
+        predicate::str::contains("embree: 4.")
+            .and(predicate::str::contains("triangles: 120"))
+            .and(predicate::str::contains("0 crease, 0 border")),
+    );
 }
 
 #[test]
@@ -28,7 +36,18 @@ fn renders_png_and_exr_in_both_modes() {
     for (mode, ext) in [("flat", "png"), ("phong", "exr")] {
         let out = dir.path().join(format!("s.{ext}"));
         phongrt()
-            .args(["render", "scenes/sphere_lowpoly.obj", "--width", "64", "--height", "48", "--quiet", "--mode", mode, "-o"])
+            .args([
+                "render",
+                "scenes/sphere_lowpoly.obj",
+                "--width",
+                "64",
+                "--height",
+                "48",
+                "--quiet",
+                "--mode",
+                mode,
+                "-o",
+            ])
             .arg(&out)
             .assert()
             .success()
@@ -37,10 +56,28 @@ fn renders_png_and_exr_in_both_modes() {
         assert_eq!((img.width(), img.height()), (64, 48));
     }
     let out = dir.path().join("cmp.png");
-    phongrt().args(["render", "scenes/sphere_lowpoly.obj", "--width", "64", "--height", "64", "-q", "--compare", "-o"]).arg(&out).assert().success();
+    phongrt()
+        .args([
+            "render",
+            "scenes/sphere_lowpoly.obj",
+            "--width",
+            "64",
+            "--height",
+            "64",
+            "-q",
+            "--compare",
+            "-o",
+        ])
+        .arg(&out)
+        .assert()
+        .success();
     assert_eq!(image::open(&out).unwrap().width(), 192);
     let out = dir.path().join("toml.png");
-    phongrt().args(["render", "scenes/figure1_sphere.toml", "--width", "32", "--height", "32", "-q", "-o"]).arg(&out).assert().success();
+    phongrt()
+        .args(["render", "scenes/figure1_sphere.toml", "--width", "32", "--height", "32", "-q", "-o"])
+        .arg(&out)
+        .assert()
+        .success();
 }
 
 #[test]
@@ -49,7 +86,24 @@ fn same_image_whatever_the_thread_count() {
     let mut bytes = Vec::new();
     for t in ["1", "2", "5"] {
         let out = dir.path().join(format!("t{t}.png"));
-        phongrt().args(["render", "scenes/sphere_lowpoly.obj", "--width", "80", "--height", "60", "--spp", "4", "-q", "--threads", t, "-o"]).arg(&out).assert().success();
+        phongrt()
+            .args([
+                "render",
+                "scenes/sphere_lowpoly.obj",
+                "--width",
+                "80",
+                "--height",
+                "60",
+                "--spp",
+                "4",
+                "-q",
+                "--threads",
+                t,
+                "-o",
+            ])
+            .arg(&out)
+            .assert()
+            .success();
         bytes.push(std::fs::read(&out).unwrap());
     }
     assert_eq!(bytes[0], bytes[1]);
@@ -76,27 +130,48 @@ fn bad_input_is_one_line_and_nonzero() {
     let out = dir.path().join("o.png").to_string_lossy().into_owned();
     fails_with(&["info", "/no/such/file.obj"], "file.obj: cannot read");
     fails_with(&["render", &bad("m.obj", "v 0 0 0\nv 1 x 0\n"), "-o", &out], "m.obj:2: malformed");
-    fails_with(&["render", &bad("i.obj", "v 0 0 0\nv 1 0 0\nv 0 1 0\nf 1 2 9\n"), "-o", &out], "i.obj:4: vertex index 9 out of range");
-    fails_with(&["render", &bad("n.obj", "v 0 0 nan\nv 1 0 0\nv 0 1 0\nf 1 2 3\n"), "-o", &out], "n.obj:1: coordinate");
+    fails_with(
+        &["render", &bad("i.obj", "v 0 0 0\nv 1 0 0\nv 0 1 0\nf 1 2 9\n"), "-o", &out],
+        "i.obj:4: vertex index 9 out of range",
+    );
+    fails_with(
+        &["render", &bad("n.obj", "v 0 0 nan\nv 1 0 0\nv 0 1 0\nf 1 2 3\n"), "-o", &out],
+        "n.obj:1: coordinate",
+    );
     fails_with(&["render", &bad("e.obj", "# empty\n"), "-o", &out], "e.obj: no triangles");
     fails_with(&["render", "scenes/sphere_lowpoly.obj", "--alpha", "2", "-o", &out], "--alpha 2");
     fails_with(&["render", "scenes/sphere_lowpoly.obj", "--width", "0", "-o", &out], "image size");
-    fails_with(&["render", "scenes/sphere_lowpoly.obj", "--eye", "0,0,0", "--look-at", "0,0,0", "-o", &out], "degenerate camera");
-    fails_with(&["render", "scenes/sphere_lowpoly.obj", "--object", "nope=flat", "-o", &out], "no such object");
-    fails_with(&["render", "scenes/sphere_lowpoly.obj", "-o", &dir.path().join("x.bmp").to_string_lossy()], "unknown image extension");
-    fails_with(&["render", &bad("s.toml", "obj = \"../x.obj\"\n[camera]\nfov = -3.0\n"), "-o", &out], "camera.fov");
+    fails_with(
+        &["render", "scenes/sphere_lowpoly.obj", "--eye", "0,0,0", "--look-at", "0,0,0", "-o", &out],
+        "degenerate camera",
+    );
+    fails_with(
+        &["render", "scenes/sphere_lowpoly.obj", "--object", "nope=flat", "-o", &out],
+        "no such object",
+    );
+    fails_with(
+        &["render", "scenes/sphere_lowpoly.obj", "-o", &dir.path().join("x.bmp").to_string_lossy()],
+        "unknown image extension",
+    );
+    fails_with(
+        &["render", &bad("s.toml", "obj = \"../x.obj\"\n[camera]\nfov = -3.0\n"), "-o", &out],
+        "camera.fov",
+    );
     // A warning, not an error: a missing MTL.
     let p = bad("w.obj", "mtllib gone.mtl\nv 0 0 0\nv 1 0 0\nv 0 1 0\nf 1 2 3\n");
-    phongrt().args(["info", &p]).assert().success().stderr(predicate::str::contains("warning").and(predicate::str::contains("gone.mtl")));
+    phongrt()
+        .args(["info", &p])
+        .assert()
+        .success()
+        .stderr(predicate::str::contains("warning").and(predicate::str::contains("gone.mtl")));
 }
 
 #[test]
 fn accuracy_report_prints_a_table() {
-    phongrt()
-        .args(["accuracy", "--rays", "20"])
-        .assert()
-        .success()
-        .stdout(predicate::str::contains("| analytic+polish | f32 | grazing").and(predicate::str::contains("| newton | f64 |")));
+    phongrt().args(["accuracy", "--rays", "20"]).assert().success().stdout(
+        predicate::str::contains("| analytic+polish | f32 | grazing")
+            .and(predicate::str::contains("| newton | f64 |")),
+    );
 }
 
 #[test]
@@ -116,14 +191,22 @@ fn every_corpus_model_renders_or_is_refused() {
             let f = f.unwrap().path();
             if f.extension().is_some_and(|e| e == "obj") {
                 let out = dir.path().join("c.png");
-                let a = phongrt().args(["render", "--width", "48", "--height", "48", "-q", "-o"]).arg(&out).arg(&f).assert();
+                let a = phongrt()
+                    .args(["render", "--width", "48", "--height", "48", "-q", "-o"])
+                    .arg(&out)
+                    .arg(&f)
+                    .assert();
                 let o = a.get_output();
                 let err = String::from_utf8_lossy(&o.stderr);
                 assert!(!err.contains("panicked"), "{}: {err}", f.display());
                 if o.status.success() {
                     assert!(out.exists());
                 } else {
-                    assert!(err.lines().any(|l| l.starts_with("phongrt: error") && l.contains(&*f.file_name().unwrap().to_string_lossy())), "{err}");
+                    assert!(
+                        err.lines().any(|l| l.starts_with("phongrt: error")
+                            && l.contains(&*f.file_name().unwrap().to_string_lossy())),
+                        "{err}"
+                    );
                 }
             }
         }
@@ -138,14 +221,25 @@ fn bench_writes_csv_table_and_plot() {
         .arg(dir.path())
         .assert()
         .success()
-        .stdout(predicate::str::contains("| direct-f32 |").and(predicate::str::contains("| subdiv-cc |")).and(predicate::str::contains("pretess-2")));
+        .stdout(
+            predicate::str::contains("| direct-f32 |")
+                .and(predicate::str::contains("| subdiv-cc |"))
+                .and(predicate::str::contains("pretess-2")),
+        );
     let _ = a;
     let csv = std::fs::read_to_string(dir.path().join("bench.csv")).unwrap();
     assert_eq!(csv.lines().count(), 1 + 1 + 2 + 6, "{csv}");
     // The f64 direct render is the reference: zero error against itself.
     assert!(csv.lines().any(|l| l.contains(",direct-f64,") && l.contains(",0.000e0,0.000e0,0,")), "{csv}");
     // Every row has a positive shaded-render time (the last column).
-    assert!(csv.lines().skip(1).all(|l| l.rsplit(',').next().and_then(|x| x.parse::<f64>().ok()).is_some_and(|x| x > 0.0)), "{csv}");
+    assert!(
+        csv.lines().skip(1).all(|l| l
+            .rsplit(',')
+            .next()
+            .and_then(|x| x.parse::<f64>().ok())
+            .is_some_and(|x| x > 0.0)),
+        "{csv}"
+    );
     let md = std::fs::read_to_string(dir.path().join("bench.md")).unwrap();
     assert!(md.contains("equal-silhouette pre-tessellation") && md.contains("| sphere-"), "{md}");
     assert!(md.contains("equal-depth pre-tessellation"), "{md}");
@@ -158,7 +252,18 @@ fn bench_builds_the_levels_asked_for_within_the_triangle_budget() {
     let dir = tempfile::tempdir().unwrap();
     // The 8-segment sphere has 48 triangles: level 3 is 432 of them, over the budget of 200.
     phongrt()
-        .args(["bench", "--spheres", "8", "--size", "16", "--levels", "3,1", "--max-pretess-tris", "200", "--out"])
+        .args([
+            "bench",
+            "--spheres",
+            "8",
+            "--size",
+            "16",
+            "--levels",
+            "3,1",
+            "--max-pretess-tris",
+            "200",
+            "--out",
+        ])
         .arg(dir.path())
         .assert()
         .success()

@@ -9,7 +9,14 @@ fn scene_of(device: &Device, meshes: &[Mesh], straight_creases: bool) -> Scene {
     let mut s = Scene::new(device).unwrap();
     for m in meshes {
         let straight = m.straight_edges();
-        let pm = PhongMesh::with_straight_edges(&m.positions, &m.normals, &m.indices, 1.0, straight_creases.then_some(&straight[..])).unwrap();
+        let pm = PhongMesh::with_straight_edges(
+            &m.positions,
+            &m.normals,
+            &m.indices,
+            1.0,
+            straight_creases.then_some(&straight[..]),
+        )
+        .unwrap();
         s.attach_phong(pm, UserGeometryOptions::default()).unwrap();
     }
     s.commit().unwrap();
@@ -23,7 +30,8 @@ fn load(text: &str, angle: f32) -> Vec<Mesh> {
 
 /// A box with split normals (from a crease angle on computed normals).
 fn box_obj() -> String {
-    let mut t = String::from("v -1 -1 -1\nv 1 -1 -1\nv 1 1 -1\nv -1 1 -1\nv -1 -1 1\nv 1 -1 1\nv 1 1 1\nv -1 1 1\n");
+    let mut t =
+        String::from("v -1 -1 -1\nv 1 -1 -1\nv 1 1 -1\nv -1 1 -1\nv -1 -1 1\nv 1 -1 1\nv 1 1 1\nv -1 1 1\n");
     for f in [[1, 4, 3, 2], [5, 6, 7, 8], [1, 2, 6, 5], [2, 3, 7, 6], [3, 4, 8, 7], [4, 1, 5, 8]] {
         t += &format!("f {} {} {} {}\n", f[0], f[1], f[2], f[3]);
     }
@@ -64,7 +72,9 @@ fn closed_meshes_with_creases_leak_nothing_from_inside() {
         assert!(m.edge_kinds.iter().flatten().any(|e| *e == EdgeKind::Crease), "{name} has no crease");
         assert!(m.edge_kinds.iter().flatten().all(|e| *e != EdgeKind::Border), "{name} is not closed");
         let scene = scene_of(&device, &meshes, true);
-        for (k, o) in [Vec3::ZERO, Vec3::new(0.3, -0.4, 0.5), Vec3::new(-0.6, 0.2, -0.7)].into_iter().enumerate() {
+        for (k, o) in
+            [Vec3::ZERO, Vec3::new(0.3, -0.4, 0.5), Vec3::new(-0.6, 0.2, -0.7)].into_iter().enumerate()
+        {
             let e = escapes(&scene, o, 350_000, k as u64 + 1);
             assert_eq!(e, 0, "{name}: {e} rays escaped from {o}");
         }
@@ -102,7 +112,10 @@ fn rays_aimed_at_crease_edges_hit() {
                 let target = a + (b - a) * s;
                 let out = (target.normalize() + r.unit().as_vec3() * 0.6).normalize();
                 let o = target + out * 3.0;
-                assert!(scene.intersect1(Ray::new(o, target - o)).is_some(), "ray at crease point {target} missed");
+                assert!(
+                    scene.intersect1(Ray::new(o, target - o)).is_some(),
+                    "ray at crease point {target} missed"
+                );
                 n += 1;
             }
         }
@@ -120,7 +133,9 @@ fn corpus_closed_models_leak_nothing() {
     }
     let device = Device::new().unwrap();
     // sphere_smooth: quads + triangles with file normals, closed; its centre is inside.
-    let s = phongrt::scene::load_obj(&corpus.join("sphere_smooth/sphere_smooth.obj"), &LoadOptions::default()).unwrap();
+    let s =
+        phongrt::scene::load_obj(&corpus.join("sphere_smooth/sphere_smooth.obj"), &LoadOptions::default())
+            .unwrap();
     assert_eq!(s.stats.border_edges, 0);
     let scene = scene_of(&device, &s.meshes, true);
     let (lo, hi) = s.bounds();
@@ -133,7 +148,9 @@ fn rendered_cylinder_shows_no_background_inside_its_silhouette() {
     use phongrt::render::{render, Camera, ObjectMode, ObjectSettings, RenderSettings, World};
     let device = Device::new().unwrap();
     let text = cylinder_obj(16);
-    let scene = phongrt::scene::load_obj_text(&text, std::path::Path::new("cyl.obj"), &LoadOptions::default()).unwrap();
+    let scene =
+        phongrt::scene::load_obj_text(&text, std::path::Path::new("cyl.obj"), &LoadOptions::default())
+            .unwrap();
     let mut holes = Vec::new();
     for straight in [true, false] {
         let world = World::from_scene(&device, &scene, |_, _| ObjectSettings {
@@ -143,7 +160,8 @@ fn rendered_cylinder_shows_no_background_inside_its_silhouette() {
         .unwrap();
         let (lo, hi) = world.bounds;
         let cam = Camera { eye: Vec3::new(0.0, 2.0, 3.5), ..Camera::frame_bounds(lo, hi, 1.0) };
-        let s = RenderSettings { width: 300, height: 300, spp: 1, threads: Some(2), progress: false, seed: 0 };
+        let s =
+            RenderSettings { width: 300, height: 300, spp: 1, threads: Some(2), progress: false, seed: 0 };
         let img = render(&world, &cam, &s).unwrap().image;
         let bg = |x: u32, y: u32| img.get(x, y) == world.background;
         // A crack is background with foreground on both sides (horizontally or vertically).
@@ -157,7 +175,10 @@ fn rendered_cylinder_shows_no_background_inside_its_silhouette() {
         }
         holes.push(n);
     }
-    println!("background pixels inside the silhouette: straight creases {}, open creases {}", holes[0], holes[1]);
+    println!(
+        "background pixels inside the silhouette: straight creases {}, open creases {}",
+        holes[0], holes[1]
+    );
     assert_eq!(holes[0], 0);
     assert!(holes[1] > 0, "the open-crease render shows no crack: the test lost its power");
 }

@@ -28,9 +28,7 @@ fn bad_config_is_an_error_not_a_panic() {
 fn triangle_hit_matches_embree_convention() {
     let device = Device::new().unwrap();
     let scene = unit_triangle_scene(&device, u32::MAX);
-    let hit = scene
-        .intersect1(Ray::new(Vec3::new(0.2, 0.3, 1.0), Vec3::new(0.0, 0.0, -2.0)))
-        .expect("hit");
+    let hit = scene.intersect1(Ray::new(Vec3::new(0.2, 0.3, 1.0), Vec3::new(0.0, 0.0, -2.0))).expect("hit");
     assert!((hit.t - 0.5).abs() < 1e-6);
     // (1-u-v) v0 + u v1 + v v2 = (u, v, 0)
     assert!((hit.u - 0.2).abs() < 1e-6 && (hit.v - 0.3).abs() < 1e-6);
@@ -61,9 +59,8 @@ fn instance_reports_inst_id_and_transforms() {
     let device = Device::new().unwrap();
     let child = unit_triangle_scene(&device, u32::MAX);
     let mut top = Scene::new(&device).unwrap();
-    let id = top
-        .attach_instance(&child, Mat4::from_translation(Vec3::new(10.0, 0.0, 0.0)), u32::MAX)
-        .unwrap();
+    let id =
+        top.attach_instance(&child, Mat4::from_translation(Vec3::new(10.0, 0.0, 0.0)), u32::MAX).unwrap();
     top.commit().unwrap();
     assert!(top.intersect1(Ray::new(Vec3::new(0.2, 0.3, 1.0), -Vec3::Z)).is_none());
     let hit = top.intersect1(Ray::new(Vec3::new(10.2, 0.3, 1.0), -Vec3::Z)).expect("hit");
@@ -75,9 +72,7 @@ fn instance_reports_inst_id_and_transforms() {
 fn out_of_range_index_is_refused() {
     let device = Device::new().unwrap();
     let mut scene = Scene::new(&device).unwrap();
-    let err = scene
-        .attach_triangles(&[Vec3::ZERO], &[[0, 1, 2]], GeometryOptions::default())
-        .unwrap_err();
+    let err = scene.attach_triangles(&[Vec3::ZERO], &[[0, 1, 2]], GeometryOptions::default()).unwrap_err();
     assert!(err.to_string().contains("out of range"));
 }
 
@@ -123,7 +118,9 @@ fn robust_mode_is_set_and_cleared_and_traces_the_same() {
     scene.set_robust(true).unwrap();
     assert!(scene.robust());
     scene.commit().unwrap();
-    let hit = scene.intersect1(Ray::new(Vec3::new(0.25, 0.25, 1.0), Vec3::new(0.0, 0.0, -1.0))).expect("hit in robust mode");
+    let hit = scene
+        .intersect1(Ray::new(Vec3::new(0.25, 0.25, 1.0), Vec3::new(0.0, 0.0, -1.0)))
+        .expect("hit in robust mode");
     assert!((hit.t - 1.0).abs() < 1e-6);
     scene.set_robust(false).unwrap();
     assert!(!scene.robust());

@@ -1,17 +1,12 @@
 //! The user-geometry plumbing (callbacks, packets, filters, masks, instances), checked with
 //! flat triangles as user geometry against Embree's native triangles on the same rays.
 use glam::{Mat4, Vec3};
-use phongrt::embree::{
-    sys, Device, GeometryOptions, Ray, Scene, UserGeometryOptions, UserTriangles,
-};
+use phongrt::embree::{sys, Device, GeometryOptions, Ray, Scene, UserGeometryOptions, UserTriangles};
 
 /// A small closed mesh: an octahedron around the origin.
 fn octahedron() -> (Vec<Vec3>, Vec<[u32; 3]>) {
     let p = vec![Vec3::X, -Vec3::X, Vec3::Y, -Vec3::Y, Vec3::Z, -Vec3::Z];
-    let i = vec![
-        [0, 2, 4], [2, 1, 4], [1, 3, 4], [3, 0, 4],
-        [2, 0, 5], [1, 2, 5], [3, 1, 5], [0, 3, 5],
-    ];
+    let i = vec![[0, 2, 4], [2, 1, 4], [1, 3, 4], [3, 0, 4], [2, 0, 5], [1, 2, 5], [3, 1, 5], [0, 3, 5]];
     (p, i)
 }
 
@@ -39,8 +34,7 @@ fn scenes(device: &Device) -> (Scene, Scene) {
     native.attach_triangles(&p, &i, GeometryOptions::default()).unwrap();
     native.commit().unwrap();
     let mut user = Scene::new(device).unwrap();
-    user.attach_user(UserTriangles { positions: p, indices: i }, UserGeometryOptions::default())
-        .unwrap();
+    user.attach_user(UserTriangles { positions: p, indices: i }, UserGeometryOptions::default()).unwrap();
     user.commit().unwrap();
     (native, user)
 }
@@ -74,9 +68,15 @@ fn packet_check<const N: usize>(native: &Scene, user: &Scene) {
         macro_rules! fill {
             ($rh:expr) => {
                 for (k, r) in chunk.iter().enumerate() {
-                    $rh.ray.org_x[k] = r.org.x; $rh.ray.org_y[k] = r.org.y; $rh.ray.org_z[k] = r.org.z;
-                    $rh.ray.dir_x[k] = r.dir.x; $rh.ray.dir_y[k] = r.dir.y; $rh.ray.dir_z[k] = r.dir.z;
-                    $rh.ray.tnear[k] = 0.0; $rh.ray.tfar[k] = f32::INFINITY; $rh.ray.mask[k] = u32::MAX;
+                    $rh.ray.org_x[k] = r.org.x;
+                    $rh.ray.org_y[k] = r.org.y;
+                    $rh.ray.org_z[k] = r.org.z;
+                    $rh.ray.dir_x[k] = r.dir.x;
+                    $rh.ray.dir_y[k] = r.dir.y;
+                    $rh.ray.dir_z[k] = r.dir.z;
+                    $rh.ray.tnear[k] = 0.0;
+                    $rh.ray.tfar[k] = f32::INFINITY;
+                    $rh.ray.mask[k] = u32::MAX;
                     $rh.hit.geomID[k] = u32::MAX;
                 }
             };
@@ -92,11 +92,16 @@ fn packet_check<const N: usize>(native: &Scene, user: &Scene) {
                     if k == N - 1 {
                         assert_eq!(rh.hit.geomID[k], u32::MAX, "invalid lane traced");
                     } else {
-                        assert_eq!(single.map(|h| h.prim_id), (rh.hit.geomID[k] != u32::MAX).then_some(rh.hit.primID[k]));
+                        assert_eq!(
+                            single.map(|h| h.prim_id),
+                            (rh.hit.geomID[k] != u32::MAX).then_some(rh.hit.primID[k])
+                        );
                     }
                 }
                 let mut ray = rh.ray;
-                for k in 0..N { ray.tfar[k] = f32::INFINITY; }
+                for k in 0..N {
+                    ray.tfar[k] = f32::INFINITY;
+                }
                 user.occluded4(v, &mut ray, None);
                 for (k, r) in chunk.iter().enumerate().take(N - 1) {
                     assert_eq!(native.occluded1(*r), ray.tfar[k] == f32::NEG_INFINITY);
@@ -109,10 +114,15 @@ fn packet_check<const N: usize>(native: &Scene, user: &Scene) {
                 user.intersect8(v, &mut rh, None);
                 for (k, r) in chunk.iter().enumerate().take(N - 1) {
                     let single = native.intersect1(*r);
-                    assert_eq!(single.map(|h| h.prim_id), (rh.hit.geomID[k] != u32::MAX).then_some(rh.hit.primID[k]));
+                    assert_eq!(
+                        single.map(|h| h.prim_id),
+                        (rh.hit.geomID[k] != u32::MAX).then_some(rh.hit.primID[k])
+                    );
                 }
                 let mut ray = rh.ray;
-                for k in 0..N { ray.tfar[k] = f32::INFINITY; }
+                for k in 0..N {
+                    ray.tfar[k] = f32::INFINITY;
+                }
                 user.occluded8(v, &mut ray, None);
                 for (k, r) in chunk.iter().enumerate().take(N - 1) {
                     assert_eq!(native.occluded1(*r), ray.tfar[k] == f32::NEG_INFINITY);
@@ -125,13 +135,18 @@ fn packet_check<const N: usize>(native: &Scene, user: &Scene) {
                 user.intersect16(v, &mut rh, None);
                 for (k, r) in chunk.iter().enumerate().take(N - 1) {
                     let single = native.intersect1(*r);
-                    assert_eq!(single.map(|h| h.prim_id), (rh.hit.geomID[k] != u32::MAX).then_some(rh.hit.primID[k]));
+                    assert_eq!(
+                        single.map(|h| h.prim_id),
+                        (rh.hit.geomID[k] != u32::MAX).then_some(rh.hit.primID[k])
+                    );
                     if let Some(s) = single {
                         assert!((s.t - rh.ray.tfar[k]).abs() <= 1e-5 * s.t);
                     }
                 }
                 let mut ray = rh.ray;
-                for k in 0..N { ray.tfar[k] = f32::INFINITY; }
+                for k in 0..N {
+                    ray.tfar[k] = f32::INFINITY;
+                }
                 user.occluded16(v, &mut ray, None);
                 for (k, r) in chunk.iter().enumerate().take(N - 1) {
                     assert_eq!(native.occluded1(*r), ray.tfar[k] == f32::NEG_INFINITY);
@@ -158,7 +173,9 @@ unsafe extern "C" fn reject_even(args: *const sys::RTCFilterFunctionNArguments) 
     let hit = a.hit as *const u32;
     for lane in 0..n {
         let valid = a.valid.add(lane);
-        if *valid != -1 { continue; }
+        if *valid != -1 {
+            continue;
+        }
         let prim = *hit.add(5 * n + lane);
         if prim % 2 == 0 {
             *valid = 0;
@@ -175,7 +192,12 @@ fn filters_see_and_reject_candidates_as_on_triangles() {
     for user in [false, true] {
         let mut scene = Scene::new(&device).unwrap();
         let id = if user {
-            scene.attach_user(UserTriangles { positions: p.clone(), indices: i.clone() }, UserGeometryOptions::default()).unwrap()
+            scene
+                .attach_user(
+                    UserTriangles { positions: p.clone(), indices: i.clone() },
+                    UserGeometryOptions::default(),
+                )
+                .unwrap()
         } else {
             scene.attach_triangles(&p, &i, GeometryOptions::default()).unwrap()
         };
@@ -187,7 +209,12 @@ fn filters_see_and_reject_candidates_as_on_triangles() {
             sys::rtcCommitGeometry(g);
         }
         scene.commit().unwrap();
-        let r: Vec<_> = rays(5000).into_iter().map(|r| (scene.intersect1(r).map(|h| (h.prim_id, (h.t * 1e4).round() as i64)), scene.occluded1(r))).collect();
+        let r: Vec<_> = rays(5000)
+            .into_iter()
+            .map(|r| {
+                (scene.intersect1(r).map(|h| (h.prim_id, (h.t * 1e4).round() as i64)), scene.occluded1(r))
+            })
+            .collect();
         results.push(r);
     }
     let odd_hits = results[1].iter().filter(|(h, _)| h.is_some()).count();
@@ -203,10 +230,13 @@ fn masks_and_instances_work_for_user_geometry() {
     let device = Device::new().unwrap();
     let (p, i) = octahedron();
     let mut child = Scene::new(&device).unwrap();
-    child.attach_user(UserTriangles { positions: p, indices: i }, UserGeometryOptions { mask: 0b10 }).unwrap();
+    child
+        .attach_user(UserTriangles { positions: p, indices: i }, UserGeometryOptions { mask: 0b10 })
+        .unwrap();
     child.commit().unwrap();
     let mut top = Scene::new(&device).unwrap();
-    let inst = top.attach_instance(&child, Mat4::from_translation(Vec3::new(5.0, 0.0, 0.0)), u32::MAX).unwrap();
+    let inst =
+        top.attach_instance(&child, Mat4::from_translation(Vec3::new(5.0, 0.0, 0.0)), u32::MAX).unwrap();
     top.commit().unwrap();
     let mut r = Ray::new(Vec3::new(5.2, 0.1, 5.0), -Vec3::Z);
     let h = top.intersect1(r).expect("hit through instance");

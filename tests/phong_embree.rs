@@ -94,7 +94,10 @@ fn alpha_zero_matches_embree_triangles_on_a_real_mesh_for_a_million_rays() {
     let mut tri = Scene::new(&device).unwrap();
     tri.attach_triangles(&mesh.positions, &mesh.indices, GeometryOptions::default()).unwrap();
     tri.commit().unwrap();
-    let (lo, hi) = mesh.positions.iter().fold((Vec3::splat(f32::MAX), Vec3::splat(f32::MIN)), |(a, b), p| (a.min(*p), b.max(*p)));
+    let (lo, hi) = mesh
+        .positions
+        .iter()
+        .fold((Vec3::splat(f32::MAX), Vec3::splat(f32::MIN)), |(a, b), p| (a.min(*p), b.max(*p)));
     let (c, r) = ((lo + hi) * 0.5, (hi - lo).length());
     let mut rng = SplitMix(21);
     let (mut hits, mut disagree, mut near_edge) = (0, 0, 0);
@@ -113,10 +116,22 @@ fn alpha_zero_matches_embree_triangles_on_a_real_mesh_for_a_million_rays() {
                 } else {
                     (a.t - b.t).abs() * ray.dir.length() * cos <= 1e-6 * r
                 };
-                assert!(ok || a.prim_id != b.prim_id, "t {} vs {} prims {} {} cos {cos}", a.t, b.t, a.prim_id, b.prim_id);
+                assert!(
+                    ok || a.prim_id != b.prim_id,
+                    "t {} vs {} prims {} {} cos {cos}",
+                    a.t,
+                    b.t,
+                    a.prim_id,
+                    b.prim_id
+                );
                 if a.prim_id != b.prim_id {
                     let edge = |u: f32, v: f32| u.min(v).min(1.0 - u - v) < 1e-4;
-                    assert!(edge(a.u, a.v) && edge(b.u, b.v), "prim {} vs {} away from an edge", a.prim_id, b.prim_id);
+                    assert!(
+                        edge(a.u, a.v) && edge(b.u, b.v),
+                        "prim {} vs {} away from an edge",
+                        a.prim_id,
+                        b.prim_id
+                    );
                     near_edge += 1;
                 }
             }
@@ -124,7 +139,10 @@ fn alpha_zero_matches_embree_triangles_on_a_real_mesh_for_a_million_rays() {
             (a, b) => {
                 // Allowed only within an epsilon of an edge (the two tests round differently there).
                 let h = a.or(b).unwrap();
-                assert!(h.u.min(h.v).min(1.0 - h.u - h.v) < 1e-4, "hit/miss disagreement away from edges: {a:?} {b:?}");
+                assert!(
+                    h.u.min(h.v).min(1.0 - h.u - h.v) < 1e-4,
+                    "hit/miss disagreement away from edges: {a:?} {b:?}"
+                );
                 disagree += 1;
             }
         }
@@ -140,7 +158,8 @@ fn embree_path_matches_the_pure_rust_intersector() {
     let device = Device::new().unwrap();
     let mesh = uv_sphere(12, 6, 1.0);
     let scene = phong_scene(&device, &mesh, 1.0, true);
-    let pm = PhongMesh::with_straight_edges(&mesh.positions, &mesh.normals, &mesh.indices, 1.0, None).unwrap();
+    let pm =
+        PhongMesh::with_straight_edges(&mesh.positions, &mesh.normals, &mesh.indices, 1.0, None).unwrap();
     let mut rng = SplitMix(33);
     let mut hits = 0;
     for _ in 0..20_000 {
@@ -150,7 +169,9 @@ fn embree_path_matches_the_pure_rust_intersector() {
             .patches
             .iter()
             .enumerate()
-            .filter_map(|(i, p)| intersect(p, V3::from(o), V3::from(d), 0.0, f32::INFINITY, pm.method).map(|h| (i as u32, h)))
+            .filter_map(|(i, p)| {
+                intersect(p, V3::from(o), V3::from(d), 0.0, f32::INFINITY, pm.method).map(|h| (i as u32, h))
+            })
             .min_by(|a, b| a.1.t.partial_cmp(&b.1.t).unwrap());
         let e = scene.intersect1(Ray::new(o, d));
         assert_eq!(brute.is_some(), e.is_some());
@@ -172,8 +193,8 @@ fn phong_mesh_attaches_to_a_raw_scene_made_by_the_callers_own_embree_code() {
     let pm = PhongMesh::new(mesh.positions.clone(), mesh.normals.clone(), mesh.indices.clone(), 1.0).unwrap();
     // The caller's own scene, created through the raw API on our device.
     let helper = Scene::new(&device).unwrap(); // only to reach the raw device handle
-    // SAFETY (test): the device is live while `helper` is; the raw scene is released below,
-    // before the handle returned by attach_phong_raw is dropped.
+                                               // SAFETY (test): the device is live while `helper` is; the raw scene is released below,
+                                               // before the handle returned by attach_phong_raw is dropped.
     unsafe {
         let raw_device = sys::rtcGetSceneDevice(helper.raw());
         let raw = sys::rtcNewScene(raw_device);

@@ -18,7 +18,14 @@ struct Stats {
 
 fn run<T: Real>(cat: Category, method: Method, n: usize, seed: u64) -> Stats {
     let mut rng = SplitMix(seed);
-    let mut s = Stats { max_rel_t: 0.0, false_miss: 0, false_miss_far_from_tangent: 0, false_hit: 0, false_hit_far_from_tangent: 0, n: 0 };
+    let mut s = Stats {
+        max_rel_t: 0.0,
+        false_miss: 0,
+        false_miss_far_from_tangent: 0,
+        false_hit: 0,
+        false_hit_far_from_tangent: 0,
+        n: 0,
+    };
     for _ in 0..n {
         let c = generate(&mut rng, cat);
         match evaluate::<T>(&c, method) {
@@ -121,8 +128,12 @@ fn flat_patches_are_hit() {
     for (alpha, normals) in [(0.0, [d3(0.3, 0.1, 1.0), d3(-0.2, 0.0, 1.0), d3(0.0, 0.4, 1.0)]), (1.0, n)] {
         let p: Patch<f32> = Patch::new(P, normals, alpha);
         for m in [Method::Analytic, Method::AnalyticPolished, Method::Newton] {
-            let h = intersect(&p, V3::new(0.25, 0.25, 2.0), V3::new(0.0, 0.0, -1.0), 0.0, f32::INFINITY, m).expect("flat patch missed");
-            assert!((h.t - 2.0).abs() < 1e-6 && (h.u - 0.25).abs() < 1e-6 && (h.v - 0.25).abs() < 1e-6, "{m:?} {h:?}");
+            let h = intersect(&p, V3::new(0.25, 0.25, 2.0), V3::new(0.0, 0.0, -1.0), 0.0, f32::INFINITY, m)
+                .expect("flat patch missed");
+            assert!(
+                (h.t - 2.0).abs() < 1e-6 && (h.u - 0.25).abs() < 1e-6 && (h.v - 0.25).abs() < 1e-6,
+                "{m:?} {h:?}"
+            );
         }
         assert!(hit32(&p, d3(0.8, 0.8, 2.0), d3(0.0, 0.0, -1.0)).is_none());
     }
@@ -138,7 +149,8 @@ fn axis_aligned_rays_pass_the_hull_tests() {
         let p: Patch<f32> = Patch::new(P, normals, 1.0);
         for m in [Method::Certified, Method::AnalyticPolished] {
             // Corners and edges exactly (the origin on the faces of the x and y slabs), and inside.
-            for (x, y) in [(0.0, 0.0), (1.0, 0.0), (0.0, 1.0), (0.5, 0.0), (0.0, 0.5), (0.5, 0.5), (0.2, 0.3)] {
+            for (x, y) in [(0.0, 0.0), (1.0, 0.0), (0.0, 1.0), (0.5, 0.0), (0.0, 0.5), (0.5, 0.5), (0.2, 0.3)]
+            {
                 let h = intersect(&p, V3::new(x, y, 5.0), V3::new(0.0, 0.0, -1.0), 0.0, f32::INFINITY, m);
                 assert!(h.is_some(), "{m:?} down at ({x}, {y}) missed, normals {normals:?}");
                 let h = intersect(&p, V3::new(x, y, -5.0), V3::new(0.0, 0.0, 1.0), 0.0, f32::INFINITY, m);
@@ -146,7 +158,8 @@ fn axis_aligned_rays_pass_the_hull_tests() {
             }
             // Outside the triangle's x or y range: the slab alone rejects.
             for (x, y) in [(-0.5, 0.2), (1.5, 0.2), (0.2, -0.5), (0.2, 1.5)] {
-                assert!(intersect(&p, V3::new(x, y, 5.0), V3::new(0.0, 0.0, -1.0), 0.0, f32::INFINITY, m).is_none());
+                assert!(intersect(&p, V3::new(x, y, 5.0), V3::new(0.0, 0.0, -1.0), 0.0, f32::INFINITY, m)
+                    .is_none());
             }
         }
     }
@@ -172,7 +185,11 @@ fn degenerate_input_never_hits_nor_panics() {
         assert!(hit32(p, d3(0.2, 0.2, 1.0), d3(0.0, 0.0, -1.0)).is_none());
     }
     let o = V3::new(0.2f32, 0.2, 1.0);
-    for (org, dir) in [(V3::new(f32::NAN, 0.0, 1.0), V3::new(0.0, 0.0, -1.0)), (o, V3::new(0.0, 0.0, 0.0)), (o, V3::new(f32::INFINITY, 0.0, -1.0))] {
+    for (org, dir) in [
+        (V3::new(f32::NAN, 0.0, 1.0), V3::new(0.0, 0.0, -1.0)),
+        (o, V3::new(0.0, 0.0, 0.0)),
+        (o, V3::new(f32::INFINITY, 0.0, -1.0)),
+    ] {
         for m in [Method::Analytic, Method::AnalyticPolished, Method::Newton] {
             assert!(intersect(&good, org, dir, 0.0, f32::INFINITY, m).is_none());
         }
@@ -238,7 +255,16 @@ fn rays_leaving_a_hit_point_do_not_self_hit() {
     for _ in 0..2000 {
         let c = generate(&mut rng, Category::RandomCurved);
         let p: Patch<f32> = Patch::new(c.p, c.n, c.alpha);
-        let Some(h) = intersect(&p, V3::from(c.org).cast(), V3::from(c.dir).cast(), 0.0, f32::INFINITY, Method::AnalyticPolished) else { continue };
+        let Some(h) = intersect(
+            &p,
+            V3::from(c.org).cast(),
+            V3::from(c.dir).cast(),
+            0.0,
+            f32::INFINITY,
+            Method::AnalyticPolished,
+        ) else {
+            continue;
+        };
         let (pt, err) = p.eval_with_error(h.u, h.v);
         let ng = p.geometric_normal(h.u, h.v).unwrap();
         // Leave towards the side the ray came from, offset by the error bound along the normal.
@@ -315,19 +341,25 @@ fn pinned_regressions() {
     let p = [d3(0.0, 0.0, 0.0), d3(1.0, 0.0, 0.0), d3(0.0, 1.0, 0.0)];
     let n = [d3(-0.9, -0.9, 0.3), d3(0.9, -0.2, 0.3), d3(-0.2, 0.9, 0.3)];
     let patch: Patch<f32> = Patch::new(p, n, 1.0);
-    let r = reference_intersect(p, n, 1.0, [false; 3], d3(0.0, 0.0, 1.0), d3(0.0, 0.0, -1.0), 0.0, f64::INFINITY);
+    let r =
+        reference_intersect(p, n, 1.0, [false; 3], d3(0.0, 0.0, 1.0), d3(0.0, 0.0, -1.0), 0.0, f64::INFINITY);
     let h = hit32(&patch, d3(0.0, 0.0, 1.0), d3(0.0, 0.0, -1.0));
     assert_eq!(r.is_some(), h.is_some());
 
     // Grazing rays 2.4e-4 and 6.5e-4 rad from tangency that the f32 solve once missed: the pencil
     // cubic had a near-double root (one real root found, line factors off by sqrt(precision)),
     // and a line-conic discriminant just outside the old sqrt(γ(8)) band.
-    for (seed, index) in [(13u64, 1135usize), (1 ^ (Category::Grazing as u64).wrapping_mul(0x2545_F491_4F6C_DD1D), 1340)] {
+    for (seed, index) in
+        [(13u64, 1135usize), (1 ^ (Category::Grazing as u64).wrapping_mul(0x2545_F491_4F6C_DD1D), 1340)]
+    {
         let mut rng = SplitMix(seed);
         let c = (0..=index).map(|_| generate(&mut rng, Category::Grazing)).last().unwrap();
         assert!(c.grazing_angle > 1e-4);
         for m in [Method::AnalyticPolished, Method::Certified] {
-            assert!(matches!(evaluate::<f32>(&c, m), Outcome::Agree { .. }), "seed {seed} case {index} {m:?}");
+            assert!(
+                matches!(evaluate::<f32>(&c, m), Outcome::Agree { .. }),
+                "seed {seed} case {index} {m:?}"
+            );
         }
     }
 }
@@ -432,7 +464,8 @@ fn certified_agrees_with_analytic() {
     let mut rng = SplitMix(99);
     let (mut n, mut hits, mut certified_only, mut analytic_only) = (0, 0, 0, 0);
     for i in 0..40_000 {
-        let cat = [Category::RandomCurved, Category::StronglyCurved, Category::NearFlat, Category::Grazing][i % 4];
+        let cat =
+            [Category::RandomCurved, Category::StronglyCurved, Category::NearFlat, Category::Grazing][i % 4];
         let c = generate(&mut rng, cat);
         let side = c.dir.any_orthonormal_vector() * rng.range(-0.7, 0.7) * c.size;
         let p: Patch<f32> = Patch::new(c.p, c.n, c.alpha);
@@ -450,11 +483,23 @@ fn certified_agrees_with_analytic() {
             (None, None) => {}
             (Some(h), None) | (None, Some(h)) => {
                 let edge = h.u.min(h.v).min(1.0 - h.u - h.v);
-                assert!(edge < 1e-3 || cat == Category::Grazing, "case {i}: disagreement inside the domain at ({}, {})", h.u, h.v);
-                if a.is_some() { analytic_only += 1 } else { certified_only += 1 }
+                assert!(
+                    edge < 1e-3 || cat == Category::Grazing,
+                    "case {i}: disagreement inside the domain at ({}, {})",
+                    h.u,
+                    h.v
+                );
+                if a.is_some() {
+                    analytic_only += 1
+                } else {
+                    certified_only += 1
+                }
             }
         }
     }
     assert!(hits > n / 4 && hits < n * 3 / 4, "{hits} hits of {n}: the rays should both hit and miss");
-    assert!(analytic_only + certified_only <= n / 1000, "{analytic_only} + {certified_only} disagreements in {n}");
+    assert!(
+        analytic_only + certified_only <= n / 1000,
+        "{analytic_only} + {certified_only} disagreements in {n}"
+    );
 }

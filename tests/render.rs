@@ -14,7 +14,8 @@ fn settings(w: u32, threads: Option<usize>) -> RenderSettings {
 }
 
 fn sphere_world(device: &Device, seg: u32, rings: u32, mode: ObjectMode) -> World {
-    World::from_scene(device, &Scene::from_mesh(uv_sphere(seg, rings, 1.0)), |_, _| ObjectSettings::new(mode)).unwrap()
+    World::from_scene(device, &Scene::from_mesh(uv_sphere(seg, rings, 1.0)), |_, _| ObjectSettings::new(mode))
+        .unwrap()
 }
 
 fn camera() -> Camera {
@@ -92,31 +93,59 @@ fn effects_not_called_for_cost_zero_rays() {
     let device = Device::new().unwrap();
     let mut world = sphere_world(&device, 24, 12, ObjectMode::Phong { alpha: 1.0 });
     // No shadow-casting light, no reflective or transparent material, no AO.
-    world.lights = vec![Light::Directional { direction: Vec3::new(0.3, 0.8, 0.5).normalize(), radiance: Vec3::ONE, shadows: false }];
+    world.lights = vec![Light::Directional {
+        direction: Vec3::new(0.3, 0.8, 0.5).normalize(),
+        radiance: Vec3::ONE,
+        shadows: false,
+    }];
     let plan = world.effects();
-    assert!(plan.shadow_lights.is_empty() && plan.reflective.is_empty() && plan.refractive.is_empty() && plan.ambient_occlusion.is_none());
+    assert!(
+        plan.shadow_lights.is_empty()
+            && plan.reflective.is_empty()
+            && plan.refractive.is_empty()
+            && plan.ambient_occlusion.is_none()
+    );
     assert_eq!(plan.to_string(), "effects: direct lighting");
     let out = render(&world, &camera(), &settings(64, Some(1))).unwrap();
     assert_eq!(out.rays.primary, 64 * 64);
     assert_eq!(out.rays.total(), out.rays.primary, "{}", out.rays);
 
     // A shadow-casting light: shadow rays, still no secondary rays.
-    world.lights = vec![Light::Directional { direction: Vec3::new(0.3, 0.8, 0.5).normalize(), radiance: Vec3::ONE, shadows: true }];
+    world.lights = vec![Light::Directional {
+        direction: Vec3::new(0.3, 0.8, 0.5).normalize(),
+        radiance: Vec3::ONE,
+        shadows: true,
+    }];
     let out = render(&world, &camera(), &settings(64, Some(1))).unwrap();
-    assert!(out.rays.shadow > 0 && out.rays.reflection == 0 && out.rays.refraction == 0 && out.rays.ambient_occlusion == 0);
+    assert!(
+        out.rays.shadow > 0
+            && out.rays.reflection == 0
+            && out.rays.refraction == 0
+            && out.rays.ambient_occlusion == 0
+    );
     assert!(world.effects().to_string().contains("shadows (1 lights)"));
 
     // A mirror material: reflection rays appear, and only then.
-    world.objects[0].surface = phongrt::render::Surface::from_material(&Material { illum: Some(3), ks: Vec3::splat(0.5), ..Material::default() });
+    world.objects[0].surface = phongrt::render::Surface::from_material(&Material {
+        illum: Some(3),
+        ks: Vec3::splat(0.5),
+        ..Material::default()
+    });
     let out = render(&world, &camera(), &settings(64, Some(1))).unwrap();
     assert!(out.rays.reflection > 0 && out.rays.refraction == 0);
     // Glass: refraction.
-    world.objects[0].surface = phongrt::render::Surface::from_material(&Material { dissolve: 0.2, ni: 1.5, ..Material::default() });
+    world.objects[0].surface =
+        phongrt::render::Surface::from_material(&Material { dissolve: 0.2, ni: 1.5, ..Material::default() });
     let out = render(&world, &camera(), &settings(64, Some(1))).unwrap();
     assert!(out.rays.refraction > 0 && out.rays.reflection == 0);
     assert!(world.effects().to_string().contains("refraction (1 objects)"));
     // Area light: soft shadows.
-    world.lights = vec![Light::Sphere { center: Vec3::new(2.0, 3.0, 2.0), radius: 0.5, intensity: Vec3::splat(10.0), samples: 4 }];
+    world.lights = vec![Light::Sphere {
+        center: Vec3::new(2.0, 3.0, 2.0),
+        radius: 0.5,
+        intensity: Vec3::splat(10.0),
+        samples: 4,
+    }];
     assert!(world.effects().to_string().contains("soft shadows"));
 }
 
@@ -124,7 +153,12 @@ fn effects_not_called_for_cost_zero_rays() {
 fn images_do_not_depend_on_thread_count() {
     let device = Device::new().unwrap();
     let mut world = sphere_world(&device, 12, 6, ObjectMode::Phong { alpha: 1.0 });
-    world.lights.push(Light::Sphere { center: Vec3::new(-2.0, 3.0, 3.0), radius: 0.7, intensity: Vec3::splat(8.0), samples: 4 });
+    world.lights.push(Light::Sphere {
+        center: Vec3::new(-2.0, 3.0, 3.0),
+        radius: 0.7,
+        intensity: Vec3::splat(8.0),
+        samples: 4,
+    });
     let mut s = settings(96, Some(1));
     s.spp = 4;
     let a = render(&world, &camera(), &s).unwrap();

@@ -109,7 +109,11 @@ fn missing_mtl_and_texture_are_warnings() {
     write(dir.path(), "tex.mtl", "newmtl red\nKd 1 0 0\nmap_Kd .\\textures\\missing.png\n");
     let p = write(dir.path(), "t.obj", &format!("mtllib tex.mtl\nusemtl red\n{TRI}f 1 2 3\n"));
     let s = load_obj(&p, &LoadOptions::default()).unwrap();
-    assert!(s.warnings.iter().any(|w| w.contains("missing.png") && w.contains("not found")), "{:?}", s.warnings);
+    assert!(
+        s.warnings.iter().any(|w| w.contains("missing.png") && w.contains("not found")),
+        "{:?}",
+        s.warnings
+    );
     assert_eq!(s.materials[0].kd, Vec3::new(1.0, 0.0, 0.0));
     assert_eq!(s.meshes[0].material, Some(0));
     let s = load_text(&format!("usemtl x\n{TRI}f 1 2 3\n")).unwrap();
@@ -141,7 +145,8 @@ fn quads_negative_indices_and_continuations() {
 }
 
 fn cube(split_normals: bool, smoothing: &str) -> String {
-    let mut t = String::from("v -1 -1 -1\nv 1 -1 -1\nv 1 1 -1\nv -1 1 -1\nv -1 -1 1\nv 1 -1 1\nv 1 1 1\nv -1 1 1\n");
+    let mut t =
+        String::from("v -1 -1 -1\nv 1 -1 -1\nv 1 1 -1\nv -1 1 -1\nv -1 -1 1\nv 1 -1 1\nv 1 1 1\nv -1 1 1\n");
     t += smoothing;
     // Outward-wound quads.
     let faces = [[1, 4, 3, 2], [5, 6, 7, 8], [1, 2, 6, 5], [2, 3, 7, 6], [3, 4, 8, 7], [4, 1, 5, 8]];
@@ -197,7 +202,8 @@ fn smoothing_groups_are_honoured() {
 #[test]
 fn welding_joins_duplicated_positions() {
     // Two triangles with their own copies of the shared edge's positions (within tolerance).
-    let s = load_text("v 0 0 0\nv 1 0 0\nv 0 1 0\nv 1 0 0.0000000001\nv 0 1 0\nv 1 1 0\nf 1 2 3\nf 4 6 5\n").unwrap();
+    let s = load_text("v 0 0 0\nv 1 0 0\nv 0 1 0\nv 1 0 0.0000000001\nv 0 1 0\nv 1 1 0\nf 1 2 3\nf 4 6 5\n")
+        .unwrap();
     assert_eq!(s.stats.vertices, 4);
     assert_eq!(s.stats.smooth_edges, 1);
     assert_eq!(s.stats.border_edges, 4);
@@ -264,14 +270,26 @@ fn every_corpus_model_loads_or_is_refused_clearly() {
                         assert!(s.stats.triangles > 0);
                         for m in &s.meshes {
                             assert_eq!(m.positions.len(), m.normals.len());
-                            assert!(m.normals.iter().all(|n| (n.length() - 1.0).abs() < 1e-4), "{}", f.display());
+                            assert!(
+                                m.normals.iter().all(|n| (n.length() - 1.0).abs() < 1e-4),
+                                "{}",
+                                f.display()
+                            );
                             assert!(m.indices.iter().flatten().all(|&i| (i as usize) < m.positions.len()));
                         }
-                        println!("{}: {} triangles, {} warnings", f.display(), s.stats.triangles, s.warnings.len());
+                        println!(
+                            "{}: {} triangles, {} warnings",
+                            f.display(),
+                            s.stats.triangles,
+                            s.warnings.len()
+                        );
                     }
                     Err(e) => {
                         let s = e.to_string();
-                        assert!(!s.contains('\n') && s.contains(&*f.file_name().unwrap().to_string_lossy()), "{s}");
+                        assert!(
+                            !s.contains('\n') && s.contains(&*f.file_name().unwrap().to_string_lossy()),
+                            "{s}"
+                        );
                         println!("{}: refused: {s}", f.display());
                     }
                 }

@@ -38,7 +38,12 @@ pub struct PhongMesh {
 
 impl PhongMesh {
     /// Build from vertex positions and normals (one per vertex), triangles and alpha.
-    pub fn new(positions: Vec<Vec3>, normals: Vec<Vec3>, indices: Vec<[u32; 3]>, alpha: f32) -> Result<Self, PhongMeshError> {
+    pub fn new(
+        positions: Vec<Vec3>,
+        normals: Vec<Vec3>,
+        indices: Vec<[u32; 3]>,
+        alpha: f32,
+    ) -> Result<Self, PhongMeshError> {
         Self::with_straight_edges(&positions, &normals, &indices, alpha, None)
     }
 
@@ -62,10 +67,15 @@ impl PhongMesh {
                 return Err(PhongMeshError::EdgeFlagCount(s.len(), indices.len()));
             }
         }
-        if let Some(i) = (0..positions.len()).find(|&i| !positions[i].is_finite() || !normals[i].is_finite()) {
+        if let Some(i) = (0..positions.len()).find(|&i| !positions[i].is_finite() || !normals[i].is_finite())
+        {
             return Err(PhongMeshError::NonFinite(i));
         }
-        if let Some((t, &index)) = indices.iter().enumerate().find_map(|(t, tri)| tri.iter().find(|&&i| i as usize >= positions.len()).map(|i| (t, i))) {
+        if let Some((t, &index)) = indices
+            .iter()
+            .enumerate()
+            .find_map(|(t, tri)| tri.iter().find(|&&i| i as usize >= positions.len()).map(|i| (t, i)))
+        {
             return Err(PhongMeshError::Index { tri: t, index, count: positions.len() });
         }
         // Patches are independent: build them on every core (order kept, so deterministic).
@@ -138,7 +148,11 @@ impl UserPrimitives for PhongMesh {
 
 impl Scene {
     /// Attach a Phong mesh as one user geometry; the scene owns it. Returns the geomID.
-    pub fn attach_phong(&mut self, mesh: PhongMesh, options: UserGeometryOptions) -> Result<u32, EmbreeError> {
+    pub fn attach_phong(
+        &mut self,
+        mesh: PhongMesh,
+        options: UserGeometryOptions,
+    ) -> Result<u32, EmbreeError> {
         self.attach_user(mesh, options)
     }
 }
@@ -162,7 +176,11 @@ impl RawPhongGeometry {
 /// # Safety
 /// `scene` must be a live `RTCScene`, and the returned handle must outlive every use of the
 /// scene (and of any scene instancing it) in ray queries.
-pub unsafe fn attach_phong_raw(scene: sys::RTCScene, mesh: PhongMesh, options: UserGeometryOptions) -> Result<RawPhongGeometry, EmbreeError> {
+pub unsafe fn attach_phong_raw(
+    scene: sys::RTCScene,
+    mesh: PhongMesh,
+    options: UserGeometryOptions,
+) -> Result<RawPhongGeometry, EmbreeError> {
     let mesh = Box::new(mesh);
     // SAFETY: the caller guarantees `scene` is live; rtcGetSceneDevice returns its device with
     // a new reference, released below. The mesh box lives in the returned handle, which the
@@ -179,7 +197,10 @@ pub unsafe fn attach_phong_raw(scene: sys::RTCScene, mesh: PhongMesh, options: U
         let err = sys::rtcGetDeviceError(device);
         sys::rtcReleaseDevice(device);
         if err != sys::RTCError::RTC_ERROR_NONE {
-            return Err(EmbreeError::Device { kind: super::device::error_kind(err), message: "attaching a Phong mesh".into() });
+            return Err(EmbreeError::Device {
+                kind: super::device::error_kind(err),
+                message: "attaching a Phong mesh".into(),
+            });
         }
         Ok(RawPhongGeometry { mesh, geom_id })
     }

@@ -173,7 +173,11 @@ pub(crate) struct OwnedGeometry(sys::RTCGeometry);
 impl OwnedGeometry {
     /// Take ownership of one reference to `geom`, just made on `device`; a null handle reports
     /// the device's error, or else names `what` could not be made.
-    pub(crate) fn new(device: &Device, geom: sys::RTCGeometry, what: &'static str) -> Result<Self, EmbreeError> {
+    pub(crate) fn new(
+        device: &Device,
+        geom: sys::RTCGeometry,
+        what: &'static str,
+    ) -> Result<Self, EmbreeError> {
         if geom.is_null() {
             device.check()?;
             return Err(EmbreeError::Null(what));
@@ -215,7 +219,11 @@ fn new_buffer_from<T: Copy>(device: &Device, items: &[T]) -> Result<OwnedBuffer,
 }
 
 /// A new geometry of `kind` on `device`, owned.
-fn new_geometry(device: &Device, kind: sys::RTCGeometryType, what: &'static str) -> Result<OwnedGeometry, EmbreeError> {
+fn new_geometry(
+    device: &Device,
+    kind: sys::RTCGeometryType,
+    what: &'static str,
+) -> Result<OwnedGeometry, EmbreeError> {
     // SAFETY: the device is live (held by `device`); rtcNewGeometry returns a geometry with one
     // reference, or null with the error recorded on the device.
     let geom = unsafe { sys::rtcNewGeometry(device.raw(), kind) };
@@ -311,13 +319,32 @@ impl Scene {
         let device = self.device().clone();
         let vbuf = new_buffer_from(&device, positions)?;
         let ibuf = new_buffer_from(&device, indices)?;
-        let geom = new_geometry(&device, sys::RTCGeometryType::RTC_GEOMETRY_TYPE_TRIANGLE, "triangle geometry")?;
+        let geom =
+            new_geometry(&device, sys::RTCGeometryType::RTC_GEOMETRY_TYPE_TRIANGLE, "triangle geometry")?;
         // SAFETY: the geometry and both buffers are live; the buffers hold the stated item
         // counts (12-byte items) and are bound before the geometry is committed; the geometry
         // retains them, so our references drop at the end of this function (rtcSetGeometryBuffer docs).
         unsafe {
-            sys::rtcSetGeometryBuffer(geom.raw(), sys::RTCBufferType::RTC_BUFFER_TYPE_VERTEX, 0, sys::RTCFormat::RTC_FORMAT_FLOAT3, vbuf.raw(), 0, 12, positions.len());
-            sys::rtcSetGeometryBuffer(geom.raw(), sys::RTCBufferType::RTC_BUFFER_TYPE_INDEX, 0, sys::RTCFormat::RTC_FORMAT_UINT3, ibuf.raw(), 0, 12, indices.len());
+            sys::rtcSetGeometryBuffer(
+                geom.raw(),
+                sys::RTCBufferType::RTC_BUFFER_TYPE_VERTEX,
+                0,
+                sys::RTCFormat::RTC_FORMAT_FLOAT3,
+                vbuf.raw(),
+                0,
+                12,
+                positions.len(),
+            );
+            sys::rtcSetGeometryBuffer(
+                geom.raw(),
+                sys::RTCBufferType::RTC_BUFFER_TYPE_INDEX,
+                0,
+                sys::RTCFormat::RTC_FORMAT_UINT3,
+                ibuf.raw(),
+                0,
+                12,
+                indices.len(),
+            );
             sys::rtcSetGeometryMask(geom.raw(), options.mask);
             sys::rtcCommitGeometry(geom.raw());
         }
@@ -335,7 +362,10 @@ impl Scene {
         tessellation_rate: f32,
     ) -> Result<u32, EmbreeError> {
         if let Some(bad) = indices.iter().flatten().find(|&&i| i as usize >= positions.len()) {
-            return Err(EmbreeError::Invalid(format!("subdivision index {bad} out of range for {} vertices", positions.len())));
+            return Err(EmbreeError::Invalid(format!(
+                "subdivision index {bad} out of range for {} vertices",
+                positions.len()
+            )));
         }
         if !(tessellation_rate.is_finite() && tessellation_rate >= 1.0) {
             return Err(EmbreeError::Invalid(format!("tessellation rate {tessellation_rate} is not >= 1")));
@@ -344,14 +374,45 @@ impl Scene {
         let vbuf = new_buffer_from(&device, positions)?;
         let ibuf = new_buffer_from(&device, indices)?;
         let fbuf = new_buffer_from(&device, &vec![3u32; indices.len()])?;
-        let geom = new_geometry(&device, sys::RTCGeometryType::RTC_GEOMETRY_TYPE_SUBDIVISION, "subdivision geometry")?;
+        let geom = new_geometry(
+            &device,
+            sys::RTCGeometryType::RTC_GEOMETRY_TYPE_SUBDIVISION,
+            "subdivision geometry",
+        )?;
         // SAFETY: as in `attach_triangles`; the face buffer holds one u32 (3) per face and the
         // index buffer one u32 per corner, as RTC_GEOMETRY_TYPE_SUBDIVISION requires
         // (rtcNewGeometry docs, "Subdivision geometry").
         unsafe {
-            sys::rtcSetGeometryBuffer(geom.raw(), sys::RTCBufferType::RTC_BUFFER_TYPE_VERTEX, 0, sys::RTCFormat::RTC_FORMAT_FLOAT3, vbuf.raw(), 0, 12, positions.len());
-            sys::rtcSetGeometryBuffer(geom.raw(), sys::RTCBufferType::RTC_BUFFER_TYPE_INDEX, 0, sys::RTCFormat::RTC_FORMAT_UINT, ibuf.raw(), 0, 4, indices.len() * 3);
-            sys::rtcSetGeometryBuffer(geom.raw(), sys::RTCBufferType::RTC_BUFFER_TYPE_FACE, 0, sys::RTCFormat::RTC_FORMAT_UINT, fbuf.raw(), 0, 4, indices.len());
+            sys::rtcSetGeometryBuffer(
+                geom.raw(),
+                sys::RTCBufferType::RTC_BUFFER_TYPE_VERTEX,
+                0,
+                sys::RTCFormat::RTC_FORMAT_FLOAT3,
+                vbuf.raw(),
+                0,
+                12,
+                positions.len(),
+            );
+            sys::rtcSetGeometryBuffer(
+                geom.raw(),
+                sys::RTCBufferType::RTC_BUFFER_TYPE_INDEX,
+                0,
+                sys::RTCFormat::RTC_FORMAT_UINT,
+                ibuf.raw(),
+                0,
+                4,
+                indices.len() * 3,
+            );
+            sys::rtcSetGeometryBuffer(
+                geom.raw(),
+                sys::RTCBufferType::RTC_BUFFER_TYPE_FACE,
+                0,
+                sys::RTCFormat::RTC_FORMAT_UINT,
+                fbuf.raw(),
+                0,
+                4,
+                indices.len(),
+            );
             sys::rtcSetGeometryTessellationRate(geom.raw(), tessellation_rate);
             sys::rtcCommitGeometry(geom.raw());
         }
@@ -367,7 +428,8 @@ impl Scene {
         }
         let device = self.device().clone();
         let cols = transform.to_cols_array();
-        let geom = new_geometry(&device, sys::RTCGeometryType::RTC_GEOMETRY_TYPE_INSTANCE, "instance geometry")?;
+        let geom =
+            new_geometry(&device, sys::RTCGeometryType::RTC_GEOMETRY_TYPE_INSTANCE, "instance geometry")?;
         // SAFETY: `child.raw()` is a live committed scene; we keep a reference to its handle
         // below so it outlives this scene. The transform is 16 floats in column-major order,
         // matching RTC_FORMAT_FLOAT4X4_COLUMN_MAJOR, and Embree copies it (rtcSetGeometryTransform docs).
@@ -463,7 +525,12 @@ macro_rules! packet_queries {
     ($isect:ident, $occl:ident, $n:literal, $rayhit:ty, $ray:ty, $fi:ident, $fo:ident) => {
         impl Scene {
             #[doc = concat!("`rtcIntersect", stringify!($n), "`: lanes with `valid[i] == -1` are traced.")]
-            pub fn $isect(&self, valid: &[i32; $n], rayhit: &mut $rayhit, args: Option<&mut sys::RTCIntersectArguments>) {
+            pub fn $isect(
+                &self,
+                valid: &[i32; $n],
+                rayhit: &mut $rayhit,
+                args: Option<&mut sys::RTCIntersectArguments>,
+            ) {
                 self.assert_committed();
                 let args = args.map_or(std::ptr::null_mut(), |a| a as *mut _);
                 let valid = AlignedValid(*valid);
@@ -473,7 +540,12 @@ macro_rules! packet_queries {
                 unsafe { sys::$fi(valid.0.as_ptr(), self.inner.raw, rayhit, args) };
             }
             #[doc = concat!("`rtcOccluded", stringify!($n), "`: occluded lanes get `tfar = -inf`.")]
-            pub fn $occl(&self, valid: &[i32; $n], ray: &mut $ray, args: Option<&mut sys::RTCOccludedArguments>) {
+            pub fn $occl(
+                &self,
+                valid: &[i32; $n],
+                ray: &mut $ray,
+                args: Option<&mut sys::RTCOccludedArguments>,
+            ) {
                 self.assert_committed();
                 let args = args.map_or(std::ptr::null_mut(), |a| a as *mut _);
                 let valid = AlignedValid(*valid);

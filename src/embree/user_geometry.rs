@@ -114,7 +114,14 @@ unsafe fn read_ray(ray: Soa, lane: usize) -> LaneRay {
 
 /// # Safety
 /// `hit` must be an RTCHitN of width `hit.n`, `lane < hit.n`, `context` a valid query context.
-unsafe fn write_hit(hit: Soa, lane: usize, h: &PrimHit, prim: u32, geom: u32, context: *const sys::RTCRayQueryContext) {
+unsafe fn write_hit(
+    hit: Soa,
+    lane: usize,
+    h: &PrimHit,
+    prim: u32,
+    geom: u32,
+    context: *const sys::RTCRayQueryContext,
+) {
     hit.set_f(HIT_NG, lane, h.ng.x);
     hit.set_f(HIT_NG + 1, lane, h.ng.y);
     hit.set_f(HIT_NG + 2, lane, h.ng.z);
@@ -163,7 +170,8 @@ unsafe extern "C" fn bounds_callback<T: UserPrimitives>(args: *const sys::RTCBou
             _ => {
                 // Excluded: empty bounds (lower > upper), which Embree's builders skip.
                 (out.lower_x, out.lower_y, out.lower_z) = (f32::INFINITY, f32::INFINITY, f32::INFINITY);
-                (out.upper_x, out.upper_y, out.upper_z) = (f32::NEG_INFINITY, f32::NEG_INFINITY, f32::NEG_INFINITY);
+                (out.upper_x, out.upper_y, out.upper_z) =
+                    (f32::NEG_INFINITY, f32::NEG_INFINITY, f32::NEG_INFINITY);
             }
         }
     }));
@@ -201,7 +209,13 @@ unsafe extern "C" fn intersect_callback<T: UserPrimitives>(args: *const sys::RTC
 /// # Safety
 /// `ray` must be an RTCRayN (or the ray part of an RTCRayHitN) of width `valid.len()`.
 #[inline(always)]
-unsafe fn for_each_candidate<T: UserPrimitives>(data: &T, prim: u32, valid: &[i32], ray: Soa, mut offer: impl FnMut(usize, &LaneRay, &PrimHit) -> bool) {
+unsafe fn for_each_candidate<T: UserPrimitives>(
+    data: &T,
+    prim: u32,
+    valid: &[i32],
+    ray: Soa,
+    mut offer: impl FnMut(usize, &LaneRay, &PrimHit) -> bool,
+) {
     for (lane, &v) in valid.iter().enumerate() {
         if v != -1 {
             continue;
@@ -225,7 +239,11 @@ unsafe fn for_each_candidate<T: UserPrimitives>(data: &T, prim: u32, valid: &[i3
 /// `a` is `*args`, valid arguments from Embree with `a.N == n` and `1 <= n <= MAX_N`, whose
 /// geometryUserPtr is a live `T`.
 #[inline(always)]
-unsafe fn intersect_lanes<T: UserPrimitives>(args: *const sys::RTCIntersectFunctionNArguments, a: &sys::RTCIntersectFunctionNArguments, n: usize) {
+unsafe fn intersect_lanes<T: UserPrimitives>(
+    args: *const sys::RTCIntersectFunctionNArguments,
+    a: &sys::RTCIntersectFunctionNArguments,
+    n: usize,
+) {
     // SAFETY: geometryUserPtr is our `T` (the caller's contract).
     let data = unsafe { &*(a.geometryUserPtr as *const T) };
     // SAFETY: `valid` points to N ints (Embree's RTCIntersectFunctionNArguments contract).
@@ -294,7 +312,11 @@ unsafe extern "C" fn occluded_callback<T: UserPrimitives>(args: *const sys::RTCO
 /// `a` is `*args`, valid arguments from Embree with `a.N == n` and `1 <= n <= MAX_N`, whose
 /// geometryUserPtr is a live `T`.
 #[inline(always)]
-unsafe fn occluded_lanes<T: UserPrimitives>(args: *const sys::RTCOccludedFunctionNArguments, a: &sys::RTCOccludedFunctionNArguments, n: usize) {
+unsafe fn occluded_lanes<T: UserPrimitives>(
+    args: *const sys::RTCOccludedFunctionNArguments,
+    a: &sys::RTCOccludedFunctionNArguments,
+    n: usize,
+) {
     // SAFETY: geometryUserPtr is our `T`, alive while the scene is.
     let data = unsafe { &*(a.geometryUserPtr as *const T) };
     // SAFETY: `valid` points to N ints (RTCOccludedFunctionNArguments contract).

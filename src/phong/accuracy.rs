@@ -112,9 +112,15 @@ pub fn generate(rng: &mut SplitMix, cat: Category) -> Case {
     // A random well-shaped triangle around the origin, unit size.
     let mut p;
     loop {
-        p = [rng.unit() * rng.range(0.5, 1.0), rng.unit() * rng.range(0.5, 1.0), rng.unit() * rng.range(0.5, 1.0)];
+        p = [
+            rng.unit() * rng.range(0.5, 1.0),
+            rng.unit() * rng.range(0.5, 1.0),
+            rng.unit() * rng.range(0.5, 1.0),
+        ];
         let area = (p[1] - p[0]).cross(p[2] - p[0]).length();
-        let longest = [(p[1] - p[0]).length(), (p[2] - p[1]).length(), (p[0] - p[2]).length()].into_iter().fold(0.0, f64::max);
+        let longest = [(p[1] - p[0]).length(), (p[2] - p[1]).length(), (p[0] - p[2]).length()]
+            .into_iter()
+            .fold(0.0, f64::max);
         if area > 0.15 * longest * longest {
             break;
         }
@@ -161,7 +167,8 @@ pub fn generate(rng: &mut SplitMix, cat: Category) -> Case {
     };
     let to_target = -(ng * elev.sin() + tangent * elev.cos());
     let dist = rng.range(1.0, 4.0);
-    let mut case = Case { p, n, alpha, org: target - to_target * dist, dir: to_target, grazing_angle, size: 1.0 };
+    let mut case =
+        Case { p, n, alpha, org: target - to_target * dist, dir: to_target, grazing_angle, size: 1.0 };
     // Placement, scale and direction magnitude.
     let (offset, scale, dscale) = match cat {
         Category::FarFromOrigin => (rng.unit() * rng.log_range(10.0, 1e5), 1.0, 1.0),
@@ -192,8 +199,10 @@ pub fn evaluate<T: Real>(case: &Case, method: Method) -> Outcome {
     // Both solvers see the same input: the case rounded to T (in f32, coordinates of 1e5 carry
     // an input error of ~6e-3 that no solver can remove; it is not the solver's error).
     let r = |v: DVec3| -> DVec3 { V3::from(v).cast::<T>().to_f64().into() };
-    let case = &Case { p: case.p.map(r), n: case.n.map(r), org: r(case.org), dir: r(case.dir), ..case.clone() };
-    let reference = reference_intersect(case.p, case.n, case.alpha, [false; 3], case.org, case.dir, 0.0, f64::INFINITY);
+    let case =
+        &Case { p: case.p.map(r), n: case.n.map(r), org: r(case.org), dir: r(case.dir), ..case.clone() };
+    let reference =
+        reference_intersect(case.p, case.n, case.alpha, [false; 3], case.org, case.dir, 0.0, f64::INFINITY);
     let patch: Patch<T> = Patch::new(case.p, case.n, case.alpha);
     let o: V3<T> = V3::from(case.org).cast();
     let d: V3<T> = V3::from(case.dir).cast();
@@ -248,8 +257,12 @@ type Eval = fn(&Case, Method) -> Outcome;
 
 /// Run every method and precision on `rays_per_category` cases of every category.
 pub fn report(rays_per_category: usize, seed: u64) -> AccuracyReport {
-    let methods: [(&'static str, Method); 4] =
-        [("analytic", Method::Analytic), ("analytic+polish", Method::AnalyticPolished), ("newton", Method::Newton), ("certified", Method::Certified)];
+    let methods: [(&'static str, Method); 4] = [
+        ("analytic", Method::Analytic),
+        ("analytic+polish", Method::AnalyticPolished),
+        ("newton", Method::Newton),
+        ("certified", Method::Certified),
+    ];
     let precisions: [(&'static str, Eval); 2] = [("f32", evaluate::<f32>), ("f64", evaluate::<f64>)];
     let mut rows = Vec::new();
     for cat in Category::ALL {
@@ -294,7 +307,11 @@ pub fn report(rays_per_category: usize, seed: u64) -> AccuracyReport {
 
 impl std::fmt::Display for AccuracyReport {
     fn fmt(&self, f: &mut std::fmt::Formatter<'_>) -> std::fmt::Result {
-        writeln!(f, "Accuracy against the subdivision reference: {} rays per category, seed {}.", self.rays_per_category, self.seed)?;
+        writeln!(
+            f,
+            "Accuracy against the subdivision reference: {} rays per category, seed {}.",
+            self.rays_per_category, self.seed
+        )?;
         writeln!(f, "rel t = |t - t_ref| / t_ref; point = |hit - hit_ref| / patch size; p50 / p99 / max.")?;
         writeln!(f)?;
         writeln!(f, "| method | prec | category | rel t p50 | rel t p99 | rel t max | point p99 | point max | false miss (near tangent) | false hit |")?;

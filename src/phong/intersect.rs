@@ -131,7 +131,8 @@ fn solve_cubic_flagged<T: Real>(c3: T, c2: T, c1: T, c0: T) -> ([T; 3], usize, b
     let (a, b, c) = (c2 / c3, c1 / c3, c0 / c3);
     let third = T::from_f64(1.0 / 3.0);
     let q = (a * a - T::from_f64(3.0) * b) * T::from_f64(1.0 / 9.0);
-    let r = (T::from_f64(2.0) * a * a * a - T::from_f64(9.0) * a * b + T::from_f64(27.0) * c) * T::from_f64(1.0 / 54.0);
+    let r = (T::from_f64(2.0) * a * a * a - T::from_f64(9.0) * a * b + T::from_f64(27.0) * c)
+        * T::from_f64(1.0 / 54.0);
     let mut roots = [z; 3];
     let n;
     let near_multiple = (r * r - q * q * q).abs() <= T::gamma(256) * (r * r).max((q * q * q).abs());
@@ -306,7 +307,9 @@ fn hits_hull<T: Real>(p: &Patch<T>, o: V3<T>, d: V3<T>, tmin: T, tmax: T) -> boo
     let (mut t0, mut t1) = (tmin, tmax);
     // Widen the slab exits by the rounding of the divisions (pbrt-v4 Bounds3::IntersectP uses 1 + 2γ(3)).
     let widen = T::ONE + T::gamma(3) + T::gamma(3);
-    for (oo, dd, lo, hi) in [(o.x, d.x, p.lo.x, p.hi.x), (o.y, d.y, p.lo.y, p.hi.y), (o.z, d.z, p.lo.z, p.hi.z)] {
+    for (oo, dd, lo, hi) in
+        [(o.x, d.x, p.lo.x, p.hi.x), (o.y, d.y, p.lo.y, p.hi.y), (o.z, d.z, p.lo.z, p.hi.z)]
+    {
         let inv = T::ONE / dd;
         let (a, b) = ((lo - oo) * inv, (hi - oo) * inv);
         let (near, far) = if a > b { (b, a) } else { (a, b) };
@@ -375,7 +378,14 @@ fn newton_step<T: Real>(p: &Patch<T>, o: V3<T>, d: V3<T>, u: T, v: T, t: T) -> O
 /// is within rounding (a discriminant near zero, a root just outside the domain or off the ray,
 /// no usable degenerate conic, a Newton step that diverged), so that a higher precision may
 /// decide differently.
-fn analytic_local<T: Real>(p: &Patch<T>, o: V3<T>, d: V3<T>, tmin: T, tmax: T, polish: bool) -> (Option<PatchHit<T>>, Ambiguity) {
+fn analytic_local<T: Real>(
+    p: &Patch<T>,
+    o: V3<T>,
+    d: V3<T>,
+    tmin: T,
+    tmax: T,
+    polish: bool,
+) -> (Option<PatchHit<T>>, Ambiguity) {
     match project(p, o, d) {
         Some(pr) => analytic_projected(p, o, d, &pr, tmin, tmax, polish),
         None => (None, Ambiguity::default()),
@@ -402,7 +412,15 @@ fn project<T: Real>(p: &Patch<T>, o: V3<T>, d: V3<T>) -> Option<Projected<T>> {
 }
 
 /// [`analytic_local`] on the ray's two conics `pr` (from [`project`]).
-fn analytic_projected<T: Real>(p: &Patch<T>, o: V3<T>, d: V3<T>, pr: &Projected<T>, tmin: T, tmax: T, polish: bool) -> (Option<PatchHit<T>>, Ambiguity) {
+fn analytic_projected<T: Real>(
+    p: &Patch<T>,
+    o: V3<T>,
+    d: V3<T>,
+    pr: &Projected<T>,
+    tmin: T,
+    tmax: T,
+    polish: bool,
+) -> (Option<PatchHit<T>>, Ambiguity) {
     let mut ambiguous = false;
     let (cf, cg) = (pr.f, pr.g);
     let (nf, ng) = (cf.norm(), cg.norm());
@@ -449,8 +467,8 @@ fn analytic_projected<T: Real>(p: &Patch<T>, o: V3<T>, d: V3<T>, pr: &Projected<
     let mut best_unsure = false;
     let dd = d.dot(d);
     let size_tol = T::gamma(64).sqrt(); // residual gate before polish (relative to the unit patch)
-    // The distance from the domain beyond which a root is decided: the residual gate's own
-    // tolerance, relative to the unit patch, is the largest parameter error a root can carry.
+                                        // The distance from the domain beyond which a root is decided: the residual gate's own
+                                        // tolerance, relative to the unit patch, is the largest parameter error a root can carry.
     let far = size_tol * T::from_f64(16.0) + domain_tolerance::<T>() * T::from_f64(64.0);
     for &x in &xs[..nx] {
         // The degenerate member, scaled so its entries stay O(1); intersect its lines with the
@@ -595,12 +613,24 @@ struct Ambiguity {
 /// `π(u, v) - π(o)` is the pair of conics `(F, G)` of [`Projected`], so the Jacobian, the
 /// certificate and Newton's iteration all run in the plane on their 12 scalar coefficients
 /// (the analytic fallback reuses them); `t` is the surface point's projection on the ray.
-fn certified_newton<T: Real>(p: &Patch<T>, o: V3<T>, d: V3<T>, pr: &Projected<T>, tmin: T, tmax: T) -> Option<Option<PatchHit<T>>> {
+fn certified_newton<T: Real>(
+    p: &Patch<T>,
+    o: V3<T>,
+    d: V3<T>,
+    pr: &Projected<T>,
+    tmin: T,
+    tmax: T,
+) -> Option<Option<PatchHit<T>>> {
     let ([fa, fb, fc, fd, fe, ff], [ga, gb, gc, gd, ge, gf]) = (pr.f.k, pr.g.k);
     // J(u, v) = [[F_u, F_v], [G_u, G_v]], linear in (u, v).
     let two = T::ONE + T::ONE;
     let jac = |u: T, v: T| -> [T; 4] {
-        [two * fa * u + fc * v + fd, fc * u + two * fb * v + fe, two * ga * u + gc * v + gd, gc * u + two * gb * v + ge]
+        [
+            two * fa * u + fc * v + fd,
+            fc * u + two * fb * v + fe,
+            two * ga * u + gc * v + gd,
+            gc * u + two * gb * v + ge,
+        ]
     };
     let third = T::from_f64(1.0 / 3.0);
     let j0 = jac(third, third);
@@ -734,7 +764,14 @@ fn newton_local<T: Real>(p: &Patch<T>, o: V3<T>, d: V3<T>, tmin: T, tmax: T) -> 
 /// The nearest hit of `org + t dir`, `t` in the open interval `(tmin, tmax)`, by `method`.
 /// Never NaN: bad input (non-finite, zero direction, degenerate patch) gives `None`.
 #[inline]
-pub fn intersect<T: Real>(p: &Patch<T>, org: V3<T>, dir: V3<T>, tmin: T, tmax: T, method: Method) -> Option<PatchHit<T>> {
+pub fn intersect<T: Real>(
+    p: &Patch<T>,
+    org: V3<T>,
+    dir: V3<T>,
+    tmin: T,
+    tmax: T,
+    method: Method,
+) -> Option<PatchHit<T>> {
     if p.degenerate || tmin.to_f64().is_nan() || tmax.to_f64().is_nan() {
         return None;
     }

@@ -128,7 +128,12 @@ impl<T: Real> Patch<T> {
     }
 
     /// As [`Patch::new`], with edges `k` (corner k to k+1) kept straight where `straight[k]`.
-    pub fn with_straight_edges(p: [glam::DVec3; 3], n: [glam::DVec3; 3], alpha: f64, straight: [bool; 3]) -> Self {
+    pub fn with_straight_edges(
+        p: [glam::DVec3; 3],
+        n: [glam::DVec3; 3],
+        alpha: f64,
+        straight: [bool; 3],
+    ) -> Self {
         let p: [V3<f64>; 3] = p.map(V3::from);
         let nn: [Option<V3<f64>>; 3] = n.map(|v| V3::from(v).normalized());
         let alpha = if alpha.is_finite() { alpha.clamp(0.0, 1.0) } else { 0.0 };
@@ -146,7 +151,8 @@ impl<T: Real> Patch<T> {
         // A power of two, so the map to the local frame and back only shifts exponents: no
         // rounding from the scale in either precision, and the same frame in f32 and f64.
         let scale = if scale > 0.0 && scale.is_finite() { pow2_at_least(scale) } else { scale };
-        let (scale, inv) = if degenerate || !(scale > 0.0 && scale.is_finite()) { (1.0, 1.0) } else { (scale, 1.0 / scale) };
+        let (scale, inv) =
+            if degenerate || !(scale > 0.0 && scale.is_finite()) { (1.0, 1.0) } else { (scale, 1.0 / scale) };
         let q = control_points(p, n, alpha, straight).map(|c| (c - center) * inv);
         let [p0, p1, p2, p01, p12, p20] = q;
         // Bernstein to power basis (w = 1-u-v).
@@ -159,8 +165,10 @@ impl<T: Real> Patch<T> {
         // The exact range of each linear functional `n · P(u, v)` over the domain (each is a
         // quadratic in (u, v)): tighter than the hull of the control points, which lies up to
         // twice as far from the base triangle as the surface does.
-        let range = |n: V3<f64>| quadratic_range([n.dot(a), n.dot(b), n.dot(c), n.dot(d), n.dot(e), n.dot(f)]);
-        let (x, y, z) = (range(V3::new(1.0, 0.0, 0.0)), range(V3::new(0.0, 1.0, 0.0)), range(V3::new(0.0, 0.0, 1.0)));
+        let range =
+            |n: V3<f64>| quadratic_range([n.dot(a), n.dot(b), n.dot(c), n.dot(d), n.dot(e), n.dot(f)]);
+        let (x, y, z) =
+            (range(V3::new(1.0, 0.0, 0.0)), range(V3::new(0.0, 1.0, 0.0)), range(V3::new(0.0, 0.0, 1.0)));
         let mut lo = V3::new(x.0, y.0, z.0);
         let mut hi = V3::new(x.1, y.1, z.1);
         // Pad by the rounding of the control points and their cast to T (relative to the

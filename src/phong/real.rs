@@ -32,13 +32,25 @@ pub trait Real:
     fn is_sign_positive(self) -> bool;
     fn mul_add(self, a: Self, b: Self) -> Self;
     fn max(self, o: Self) -> Self {
-        if self > o { self } else { o }
+        if self > o {
+            self
+        } else {
+            o
+        }
     }
     fn min(self, o: Self) -> Self {
-        if self < o { self } else { o }
+        if self < o {
+            self
+        } else {
+            o
+        }
     }
     fn copysign(self, sign: Self) -> Self {
-        if (sign < Self::ZERO) == (self < Self::ZERO) { self } else { -self }
+        if (sign < Self::ZERO) == (self < Self::ZERO) {
+            self
+        } else {
+            -self
+        }
     }
     /// `gamma(n) = n u / (1 - n u)`: the relative error bound of `n` rounded operations
     /// (Higham; pbrt-v4 §6.8).

@@ -33,7 +33,12 @@ struct Setup {
 
 fn bez(cp: &[V3<f64>; 6], u: f64, v: f64) -> V3<f64> {
     let w = 1.0 - u - v;
-    cp[0] * (w * w) + cp[1] * (u * u) + cp[2] * (v * v) + cp[3] * (2.0 * w * u) + cp[4] * (2.0 * u * v) + cp[5] * (2.0 * v * w)
+    cp[0] * (w * w)
+        + cp[1] * (u * u)
+        + cp[2] * (v * v)
+        + cp[3] * (2.0 * w * u)
+        + cp[4] * (2.0 * u * v)
+        + cp[5] * (2.0 * v * w)
 }
 
 /// Phong tessellation from its definition (Boubekeur & Alexa 2008), Embree's convention.
@@ -81,7 +86,14 @@ fn subdivide(s: &Setup, tri: [Uv; 3], depth: u32, out: &mut Vec<Uv>) {
     // Bernstein coefficients: corners are values; edge coefficient = 2 f(mid) - (f(i)+f(j))/2.
     let coef = |k: usize| -> [f64; 6] {
         let g = |i: usize| if k == 0 { vals[i].0 } else { vals[i].1 };
-        [g(0), g(1), g(2), 2.0 * g(3) - 0.5 * (g(0) + g(1)), 2.0 * g(4) - 0.5 * (g(1) + g(2)), 2.0 * g(5) - 0.5 * (g(2) + g(0))]
+        [
+            g(0),
+            g(1),
+            g(2),
+            2.0 * g(3) - 0.5 * (g(0) + g(1)),
+            2.0 * g(4) - 0.5 * (g(1) + g(2)),
+            2.0 * g(5) - 0.5 * (g(2) + g(0)),
+        ]
     };
     for k in 0..2 {
         let c = coef(k);
@@ -183,7 +195,13 @@ pub fn reference_intersect(
 }
 
 /// The reference surface point at `(u, v)` (f64).
-pub fn reference_point(p: [glam::DVec3; 3], n: [glam::DVec3; 3], alpha: f64, u: f64, v: f64) -> Option<glam::DVec3> {
+pub fn reference_point(
+    p: [glam::DVec3; 3],
+    n: [glam::DVec3; 3],
+    alpha: f64,
+    u: f64,
+    v: f64,
+) -> Option<glam::DVec3> {
     let nn = n.map(|x| V3::from(x).normalized());
     if nn.iter().any(|x| x.is_none()) {
         return None;

@@ -129,9 +129,9 @@ pub fn render(world: &World, camera: &Camera, settings: &RenderSettings) -> anyh
     if settings.spp == 0 || settings.spp > 1 << 16 {
         bail!("samples per pixel {} is out of range (1..=65536)", settings.spp);
     }
-    let frame = camera
-        .frame(w as f32 / h as f32)
-        .context("degenerate camera: eye equals look-at, up is parallel to the view, or fov not in (0, 180)")?;
+    let frame = camera.frame(w as f32 / h as f32).context(
+        "degenerate camera: eye equals look-at, up is parallel to the view, or fov not in (0, 180)",
+    )?;
 
     let tiles_x = w.div_ceil(TILE);
     let tiles_y = h.div_ceil(TILE);
@@ -139,8 +139,10 @@ pub fn render(world: &World, camera: &Camera, settings: &RenderSettings) -> anyh
     let bar = if settings.progress && std::io::stderr().is_terminal() {
         let b = indicatif::ProgressBar::new(n_tiles);
         b.set_style(
-            indicatif::ProgressStyle::with_template("{spinner} rendering [{bar:40}] {percent}% {elapsed_precise} eta {eta}")
-                .unwrap_or_else(|_| indicatif::ProgressStyle::default_bar()),
+            indicatif::ProgressStyle::with_template(
+                "{spinner} rendering [{bar:40}] {percent}% {elapsed_precise} eta {eta}",
+            )
+            .unwrap_or_else(|_| indicatif::ProgressStyle::default_bar()),
         );
         b
     } else {

@@ -167,7 +167,8 @@ impl SceneFile {
     }
 
     fn check(&self, path: &Path) -> Result<(), SceneFileError> {
-        let bad = |key: String, message: String| SceneFileError::Invalid { path: path.to_path_buf(), key, message };
+        let bad =
+            |key: String, message: String| SceneFileError::Invalid { path: path.to_path_buf(), key, message };
         let finite = |key: &str, v: &[f32]| -> Result<(), SceneFileError> {
             if v.iter().all(|x| x.is_finite()) {
                 Ok(())
@@ -273,10 +274,16 @@ impl SceneFile {
         }
         if let Some(ao) = self.ambient_occlusion {
             if ao.samples == 0 || ao.samples > 4096 {
-                return Err(bad("ambient_occlusion.samples".into(), format!("{} is not in 1..=4096", ao.samples)));
+                return Err(bad(
+                    "ambient_occlusion.samples".into(),
+                    format!("{} is not in 1..=4096", ao.samples),
+                ));
             }
             if !(ao.distance.is_finite() && ao.distance > 0.0) {
-                return Err(bad("ambient_occlusion.distance".into(), format!("{} is not a positive number", ao.distance)));
+                return Err(bad(
+                    "ambient_occlusion.distance".into(),
+                    format!("{} is not a positive number", ao.distance),
+                ));
             }
         }
         if let Some(a) = self.crease_angle {

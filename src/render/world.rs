@@ -192,9 +192,16 @@ impl World {
                     .with_context(|| format!("object {:?}", mesh.name))?,
                 ObjectMode::Phong { alpha } => {
                     let straight = mesh.straight_edges();
-                    let straight = (s.straight_creases && straight.len() == mesh.indices.len()).then_some(straight);
-                    let pm = PhongMesh::with_straight_edges(&mesh.positions, &mesh.normals, &mesh.indices, alpha, straight.as_deref())
-                        .with_context(|| format!("object {:?}", mesh.name))?;
+                    let straight =
+                        (s.straight_creases && straight.len() == mesh.indices.len()).then_some(straight);
+                    let pm = PhongMesh::with_straight_edges(
+                        &mesh.positions,
+                        &mesh.normals,
+                        &mesh.indices,
+                        alpha,
+                        straight.as_deref(),
+                    )
+                    .with_context(|| format!("object {:?}", mesh.name))?;
                     phong = Some(pm.clone());
                     scene
                         .attach_phong(pm, UserGeometryOptions::default())
@@ -366,7 +373,13 @@ impl World {
     }
 
     /// Fraction of the cosine-weighted hemisphere not blocked within `ao.distance`.
-    fn ambient_visibility(&self, sp: &SurfacePoint, ao: AmbientOcclusion, counts: &mut RayCounts, rng: &mut Rng) -> f32 {
+    fn ambient_visibility(
+        &self,
+        sp: &SurfacePoint,
+        ao: AmbientOcclusion,
+        counts: &mut RayCounts,
+        rng: &mut Rng,
+    ) -> f32 {
         let n = ao.samples.max(1);
         let (t, b) = orthonormal_basis(sp.n);
         let mut free = 0;
@@ -480,10 +493,7 @@ fn orthonormal_basis(n: Vec3) -> (Vec3, Vec3) {
     let sign = 1.0f32.copysign(n.z);
     let a = -1.0 / (sign + n.z);
     let b = n.x * n.y * a;
-    (
-        Vec3::new(1.0 + sign * n.x * n.x * a, sign * b, -sign * n.x),
-        Vec3::new(b, sign + n.y * n.y * a, -n.y),
-    )
+    (Vec3::new(1.0 + sign * n.x * n.x * a, sign * b, -sign * n.x), Vec3::new(b, sign + n.y * n.y * a, -n.y))
 }
 
 impl Object {
@@ -509,11 +519,13 @@ impl Object {
             }
             ObjectMode::Phong { .. } => {
                 let pm = self.phong.as_ref();
-                let (p, err) = pm.and_then(|m| m.surface_point(hit.prim_id, hit.u, hit.v)).unwrap_or_else(|| {
-                    let p = ray.at(hit.t);
-                    (p, gamma(7) * (ray.org.abs() + (hit.t * ray.dir).abs()))
-                });
-                let n = pm.and_then(|m| m.shading_normal(hit.prim_id, hit.u, hit.v, ray.dir)).unwrap_or(ng_raw);
+                let (p, err) =
+                    pm.and_then(|m| m.surface_point(hit.prim_id, hit.u, hit.v)).unwrap_or_else(|| {
+                        let p = ray.at(hit.t);
+                        (p, gamma(7) * (ray.org.abs() + (hit.t * ray.dir).abs()))
+                    });
+                let n =
+                    pm.and_then(|m| m.shading_normal(hit.prim_id, hit.u, hit.v, ray.dir)).unwrap_or(ng_raw);
                 (p, err, n)
             }
         };

@@ -180,7 +180,11 @@ impl Scene {
     }
 
     fn recount(&mut self) {
-        let mut st = LoadStats { degenerate_skipped: self.stats.degenerate_skipped, zero_normals_replaced: self.stats.zero_normals_replaced, ..Default::default() };
+        let mut st = LoadStats {
+            degenerate_skipped: self.stats.degenerate_skipped,
+            zero_normals_replaced: self.stats.zero_normals_replaced,
+            ..Default::default()
+        };
         for m in &self.meshes {
             st.vertices += m.positions.len();
             st.triangles += m.indices.len();
@@ -228,19 +232,25 @@ pub fn load_obj_text(text: &str, path: &Path, opts: &LoadOptions) -> Result<Scen
     let mut materials: Vec<Material> = Vec::new();
     for lib in &raw.mtllibs {
         let mtl_path = obj::resolve_file(&dir, lib);
-        let loaded = std::fs::read(&mtl_path)
-            .map_err(|e| e.to_string())
-            .and_then(|b| tobj::load_mtl_buf(&mut String::from_utf8_lossy(&b).as_bytes()).map_err(|e| e.to_string()));
+        let loaded = std::fs::read(&mtl_path).map_err(|e| e.to_string()).and_then(|b| {
+            tobj::load_mtl_buf(&mut String::from_utf8_lossy(&b).as_bytes()).map_err(|e| e.to_string())
+        });
         match loaded {
             Ok((mats, _)) => {
                 for m in mats {
                     let tex = m.diffuse_texture.as_ref().map(|t| obj::resolve_file(&dir, t));
                     if let Some(t) = &tex {
                         if !t.exists() {
-                            warnings.push(format!("{}: texture {} not found (textures are not used)", mtl_path.display(), t.display()));
+                            warnings.push(format!(
+                                "{}: texture {} not found (textures are not used)",
+                                mtl_path.display(),
+                                t.display()
+                            ));
                         }
                     }
-                    let v3 = |a: Option<[f32; 3]>, d: Vec3| a.map(Vec3::from).filter(|v| v.is_finite()).unwrap_or(d);
+                    let v3 = |a: Option<[f32; 3]>, d: Vec3| {
+                        a.map(Vec3::from).filter(|v| v.is_finite()).unwrap_or(d)
+                    };
                     let ke = m
                         .unknown_param
                         .get("Ke")
@@ -268,14 +278,20 @@ pub fn load_obj_text(text: &str, path: &Path, opts: &LoadOptions) -> Result<Scen
                     });
                 }
             }
-            Err(e) => warnings.push(format!("{name}: material library {} not usable ({e}); using a default material", mtl_path.display())),
+            Err(e) => warnings.push(format!(
+                "{name}: material library {} not usable ({e}); using a default material",
+                mtl_path.display()
+            )),
         }
     }
     if raw.usemtl_without_mtllib && raw.mtllibs.is_empty() {
         warnings.push(format!("{name}: `usemtl` without `mtllib`; using a default material"));
     }
     if raw.skipped_statements > 0 {
-        warnings.push(format!("{name}: skipped {} unsupported statements (lines, points, curves, ...)", raw.skipped_statements));
+        warnings.push(format!(
+            "{name}: skipped {} unsupported statements (lines, points, curves, ...)",
+            raw.skipped_statements
+        ));
     }
 
     // Group faces into meshes by (group, material).
@@ -325,13 +341,21 @@ pub fn load_obj_text(text: &str, path: &Path, opts: &LoadOptions) -> Result<Scen
         }
     }
     if !undefined.is_empty() {
-        warnings.push(format!("{name}: {} materials not defined (e.g. {:?}); using a default material", undefined.len(), undefined[0]));
+        warnings.push(format!(
+            "{name}: {} materials not defined (e.g. {:?}); using a default material",
+            undefined.len(),
+            undefined[0]
+        ));
     }
     if stats.degenerate_skipped > 0 {
-        warnings.push(format!("{name}: skipped {} degenerate (zero-area) triangles", stats.degenerate_skipped));
+        warnings
+            .push(format!("{name}: skipped {} degenerate (zero-area) triangles", stats.degenerate_skipped));
     }
     if stats.zero_normals_replaced > 0 {
-        warnings.push(format!("{name}: {} zero-length or invalid normals replaced by computed ones", stats.zero_normals_replaced));
+        warnings.push(format!(
+            "{name}: {} zero-length or invalid normals replaced by computed ones",
+            stats.zero_normals_replaced
+        ));
     }
     if meshes.is_empty() {
         let detail = if raw.faces.is_empty() {
@@ -511,7 +535,8 @@ fn build_mesh(
             corner_normal.insert((t, k), n);
         }
     }
-    let computed_normal = |ti: usize, k: usize| -> Vec3 { corner_normal.get(&(ti, k)).copied().unwrap_or(face_n[ti]) };
+    let computed_normal =
+        |ti: usize, k: usize| -> Vec3 { corner_normal.get(&(ti, k)).copied().unwrap_or(face_n[ti]) };
 
     // Output vertices: one per (position, normal).
     let mut vmap: HashMap<(u32, [u32; 3]), u32> = HashMap::new();

@@ -48,15 +48,19 @@ fn malformed(path: &Path, line: usize, msg: impl Into<String>) -> SceneError {
     SceneError::Malformed { path: path.to_path_buf(), line, message: msg.into() }
 }
 
-fn parse_floats<const N: usize>(path: &Path, line: usize, what: &str, args: &[&str]) -> Result<[f32; N], SceneError> {
+fn parse_floats<const N: usize>(
+    path: &Path,
+    line: usize,
+    what: &str,
+    args: &[&str],
+) -> Result<[f32; N], SceneError> {
     if args.len() < N {
         return Err(malformed(path, line, format!("`{what}` needs {N} numbers, found {}", args.len())));
     }
     let mut out = [0.0f32; N];
     for (i, a) in args.iter().take(N).enumerate() {
-        let x: f32 = a
-            .parse()
-            .map_err(|_| malformed(path, line, format!("`{what}`: {a:?} is not a number")))?;
+        let x: f32 =
+            a.parse().map_err(|_| malformed(path, line, format!("`{what}`: {a:?} is not a number")))?;
         if !x.is_finite() {
             return Err(SceneError::NonFinite { path: path.to_path_buf(), line, value: a.to_string() });
         }
@@ -67,9 +71,8 @@ fn parse_floats<const N: usize>(path: &Path, line: usize, what: &str, args: &[&s
 
 /// Resolve a 1-based (or negative, relative) OBJ index against `count` elements so far.
 fn resolve(path: &Path, line: usize, kind: &str, tok: &str, count: usize) -> Result<u32, SceneError> {
-    let i: i64 = tok
-        .parse()
-        .map_err(|_| malformed(path, line, format!("{kind} index {tok:?} is not an integer")))?;
+    let i: i64 =
+        tok.parse().map_err(|_| malformed(path, line, format!("{kind} index {tok:?} is not an integer")))?;
     let r = if i > 0 { i - 1 } else { count as i64 + i };
     if i == 0 || r < 0 || r >= count as i64 {
         return Err(SceneError::IndexOutOfRange {
@@ -131,7 +134,11 @@ pub fn parse(text: &str, path: &Path) -> Result<RawObj, SceneError> {
             }
             "f" => {
                 if args.len() < 3 {
-                    return Err(malformed(path, line, format!("a face needs at least 3 corners, found {}", args.len())));
+                    return Err(malformed(
+                        path,
+                        line,
+                        format!("a face needs at least 3 corners, found {}", args.len()),
+                    ));
                 }
                 let mut corners = Vec::with_capacity(args.len());
                 for a in &args {
@@ -140,7 +147,11 @@ pub fn parse(text: &str, path: &Path) -> Result<RawObj, SceneError> {
                     let t = parts.next();
                     let n = parts.next();
                     if parts.next().is_some() {
-                        return Err(malformed(path, line, format!("face corner {a:?} has more than 3 parts")));
+                        return Err(malformed(
+                            path,
+                            line,
+                            format!("face corner {a:?} has more than 3 parts"),
+                        ));
                     }
                     let v = resolve(path, line, "vertex", v, obj.positions.len())?;
                     if let Some(t) = t.filter(|t| !t.is_empty()) {
