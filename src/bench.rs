@@ -324,7 +324,8 @@ fn shaded(scene: &Scene, frame: &crate::render::CameraFrame, width: u32, height:
                     ng: n,
                     n,
                     entering: true,
-                    smooth_terminator: false,
+                    terminator: crate::render::Terminator::Plain,
+                    lift: Vec3::ZERO,
                 };
                 if !scene.occluded1(Ray::new(sp.offset_origin(light), light)) {
                     sum += cos as f64;

@@ -29,6 +29,22 @@ pub enum Command {
     /// Measure every method (flat, pre-tessellated 1..64, direct f32/f64, Newton, user-geometry
     /// floor, Catmull-Clark) on spheres of growing size and the given OBJ files: CSV, table, plot.
     Bench(BenchArgs),
+    /// Count shading steps in a PNG render: pixels at least --margin px inside the silhouette
+    /// (background = the top-left pixel's colour) whose luminance jumps by more than --threshold
+    /// /255 to the left or upper neighbour. Prints: steps, largest step, interior pixels.
+    Smoothness(SmoothnessArgs),
+}
+
+#[derive(Args, Debug)]
+pub struct SmoothnessArgs {
+    /// The PNG image.
+    pub image: PathBuf,
+    /// Luminance step that counts, in 1/255 units.
+    #[arg(long, default_value_t = 8.0)]
+    pub threshold: f32,
+    /// Pixels inside the silhouette that are left out (anti-aliased edges).
+    #[arg(long, default_value_t = 3)]
+    pub margin: u32,
 }
 
 /// How surfaces are made.
@@ -59,9 +75,21 @@ pub struct RenderArgs {
     /// Surface mode for every object.
     #[arg(long, value_enum, default_value_t = Mode::Phong)]
     pub mode: Mode,
-    /// Phong shape factor in [0, 1] (0 = flat, 1 = full Phong tessellation).
-    #[arg(long, default_value_t = 1.0)]
+    /// Phong shape factor in [0, 1] (0 = flat, 1 = full Phong tessellation; 0.75 is Boubekeur &
+    /// Alexa's recommendation, which bulges less).
+    #[arg(long, default_value_t = phongrt::phong::DEFAULT_ALPHA)]
     pub alpha: f32,
+    /// Shading normal of Phong surfaces: adapted (continuous; Keller et al. 2017), paper (Ogaki &
+    /// Tokuyoshi §4's switch to the true normal) or interpolated [default: adapted].
+    #[arg(long, value_parser = parse_shading)]
+    pub shading: Option<phongrt::phong::ShadingNormal>,
+    /// Terminator of Phong surfaces: lift (shadow rays from Hanika's lifted origin), plain (from the
+    /// true surface), or band (the former true-normal band, for comparison) [default: lift].
+    #[arg(long, value_parser = parse_terminator)]
+    pub terminator: Option<phongrt::render::Terminator>,
+    /// A ground plane under the scene (perpendicular to the camera's up), receiving its shadows.
+    #[arg(long)]
+    pub ground: bool,
     /// Render flat and Phong side by side with a difference panel (the paper's Figure 1).
     #[arg(long)]
     pub compare: bool,
@@ -154,6 +182,24 @@ pub struct BenchArgs {
     /// the tiny triangles of a fine pre-tessellation, at some cost in speed.
     #[arg(long)]
     pub robust: bool,
+}
+
+/// Parse a shading-normal rule name.
+pub fn parse_shading(s: &str) -> Result<phongrt::phong::ShadingNormal, String> {
+    use phongrt::phong::ShadingNormal;
+    ShadingNormal::from_name(s).ok_or_else(|| {
+        let names: Vec<&str> = ShadingNormal::ALL.iter().map(|r| r.name()).collect();
+        format!("{s:?} is not one of {}", names.join(", "))
+    })
+}
+
+/// Parse a terminator rule name.
+pub fn parse_terminator(s: &str) -> Result<phongrt::render::Terminator, String> {
+    use phongrt::render::Terminator;
+    Terminator::from_name(s).ok_or_else(|| {
+        let names: Vec<&str> = Terminator::ALL.iter().map(|r| r.name()).collect();
+        format!("{s:?} is not one of {}", names.join(", "))
+    })
 }
 
 /// Parse "x,y,z" into a vector of finite numbers.

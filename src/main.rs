@@ -36,6 +36,20 @@ fn run(cli: Cli) -> anyhow::Result<()> {
         Command::Render(args) => render_cmd(args),
         Command::Info(args) => info_cmd(args),
         Command::Bench(args) => bench_cmd(args),
+        Command::Smoothness(args) => {
+            let img = image::open(&args.image)
+                .with_context(|| format!("{}: cannot read as an image", args.image.display()))?
+                .to_rgb8();
+            let s = render::smoothness::shading_steps(
+                img.as_raw(),
+                img.width(),
+                img.height(),
+                args.threshold,
+                args.margin,
+            );
+            println!("{} steps, largest {:.1}/255, {} interior pixels", s.count, s.largest, s.interior);
+            Ok(())
+        }
         Command::Accuracy(args) => {
             anyhow::ensure!(args.rays > 0, "--rays must be at least 1");
             print!("{}", phongrt::phong::accuracy::report(args.rays, args.seed));
@@ -67,7 +81,7 @@ fn parse_object_override(s: &str) -> anyhow::Result<(String, ObjectMode)> {
         .with_context(|| format!("--object {s:?}: expected NAME=flat or NAME=phong[:ALPHA]"))?;
     let mode = match mode.split_once(':') {
         None if mode == "flat" => ObjectMode::Flat,
-        None if mode == "phong" => ObjectMode::Phong { alpha: 1.0 },
+        None if mode == "phong" => ObjectMode::Phong { alpha: phongrt::phong::DEFAULT_ALPHA },
         Some(("phong", a)) => {
             let alpha: f32 =
                 a.parse().with_context(|| format!("--object {s:?}: alpha {a:?} is not a number"))?;
@@ -123,7 +137,9 @@ fn render_cmd(args: RenderArgs) -> anyhow::Result<()> {
                 for o in sf.objects.iter().filter(|o| o.name == "*" || o.name == mesh.name) {
                     match (o.mode, o.alpha) {
                         (Some(ModeName::Flat), _) => mode = ObjectMode::Flat,
-                        (Some(ModeName::Phong), a) => mode = ObjectMode::Phong { alpha: a.unwrap_or(1.0) },
+                        (Some(ModeName::Phong), a) => {
+                            mode = ObjectMode::Phong { alpha: a.unwrap_or(phongrt::phong::DEFAULT_ALPHA) }
+                        }
                         (None, Some(a)) => mode = ObjectMode::Phong { alpha: a },
                         (None, None) => {}
                     }
@@ -144,8 +160,31 @@ fn render_cmd(args: RenderArgs) -> anyhow::Result<()> {
     let settings =
         RenderSettings { width, height, spp, threads: args.threads, progress: !args.quiet, seed: 0 };
 
+    // Shading choices: the command line over the scene file over the defaults.
+    let sf_render = sf.as_ref().map(|s| &s.render);
+    let shading = args
+        .shading
+        .or(sf_render.and_then(|r| r.shading.as_deref()).and_then(phongrt::phong::ShadingNormal::from_name))
+        .unwrap_or_default();
+    let terminator = args
+        .terminator
+        .or(sf_render.and_then(|r| r.terminator.as_deref()).and_then(render::Terminator::from_name))
+        .unwrap_or_default();
+    let sf_ground = sf.as_ref().and_then(|s| s.ground.clone());
+    let ground = (args.ground || sf_ground.is_some()).then(|| {
+        let up = args.camera.up.or(sf.as_ref().and_then(|s| s.camera.up).map(Vec3::from)).unwrap_or(Vec3::Y);
+        let g = sf_ground.unwrap_or_default();
+        render::Ground {
+            up: up.normalize_or_zero(),
+            height: g.height,
+            kd: g.kd.map_or(render::Ground::default().kd, Vec3::from),
+        }
+    });
+
     let build = |forced: Option<ObjectMode>| -> anyhow::Result<World> {
-        let mut world = World::from_scene(&device, &input, settings_for(forced))?;
+        let mut world = World::from_scene_with_ground(&device, &input, ground, settings_for(forced))?;
+        world.shading = shading;
+        world.terminator = terminator;
         if let Some(sf) = &sf {
             apply_scene_file(&mut world, sf);
         }

@@ -8,7 +8,7 @@ use super::device::EmbreeError;
 use super::scene::Scene;
 use super::sys;
 use super::user_geometry::{new_user_geometry, PrimHit, UserGeometryOptions, UserPrimitives};
-use crate::phong::{intersect, Method, Patch, V3};
+use crate::phong::{intersect, Method, Patch, ShadingNormal, V3};
 
 /// Why a Phong mesh was refused.
 #[derive(Debug, Clone, thiserror::Error)]
@@ -106,10 +106,38 @@ impl PhongMesh {
         Some((pt.into(), err.into()))
     }
 
-    /// The shading normal (Ogaki & Tokuyoshi §4) at `(u, v)` for a ray along `dir`.
+    /// The default shading normal ([`ShadingNormal::Adapted`]) at `(u, v)` for a ray along `dir`:
+    /// unit, facing the side the ray came from. `None` for a primitive out of range, a non-finite
+    /// `(u, v)` or `dir`, or a degenerate normal.
     pub fn shading_normal(&self, prim: u32, u: f32, v: f32, dir: Vec3) -> Option<Vec3> {
+        self.shading_normal_with(prim, u, v, dir, ShadingNormal::default())
+    }
+
+    /// The shading normal at `(u, v)` for a ray along `dir` under `rule` (see [`ShadingNormal`]).
+    pub fn shading_normal_with(
+        &self,
+        prim: u32,
+        u: f32,
+        v: f32,
+        dir: Vec3,
+        rule: ShadingNormal,
+    ) -> Option<Vec3> {
         let p = self.patches.get(prim as usize)?;
-        p.shading_normal(u, v, V3::from(dir)).map(Vec3::from)
+        if !(u.is_finite() && v.is_finite()) {
+            return None;
+        }
+        p.shading_normal_with(u, v, V3::from(dir), rule).map(Vec3::from).filter(|n| n.is_finite())
+    }
+
+    /// The shadow-ray origin lift at `(u, v)` of patch `prim` on the side `side` of the vertex
+    /// normals (+1 or -1): see [`Patch::shadow_lift`]. Zero where it is not finite.
+    pub fn shadow_lift(&self, prim: u32, u: f32, v: f32, side: f32) -> Vec3 {
+        match self.patches.get(prim as usize) {
+            Some(p) if u.is_finite() && v.is_finite() => {
+                Some(Vec3::from(p.shadow_lift(u, v, side))).filter(|l| l.is_finite()).unwrap_or(Vec3::ZERO)
+            }
+            _ => Vec3::ZERO,
+        }
     }
 
     /// The true surface normal `dP/du × dP/dv` (unit) at `(u, v)`.

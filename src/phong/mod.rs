@@ -16,6 +16,11 @@
 //! assert!((point.z - (1.0 - hit.t)).abs() < 1e-5);
 //! ```
 
+/// The default shape factor: Boubekeur & Alexa's recommended 3/4. Full Phong tessellation
+/// (`alpha = 1`) bulges a coarse mesh noticeably past the surface its normals describe (5.2% of
+/// the radius on the 12×6 demo sphere against 2.3% at 3/4).
+pub const DEFAULT_ALPHA: f32 = 0.75;
+
 pub mod accuracy;
 pub mod intersect;
 pub mod patch;
@@ -23,5 +28,5 @@ pub mod real;
 pub mod reference;
 
 pub use intersect::{intersect, solve_cubic, solve_quadratic, Method, PatchHit};
-pub use patch::{control_points, Patch};
+pub use patch::{adapt_shading_normal, control_points, Patch, ShadingNormal};
 pub use real::{Real, V3};

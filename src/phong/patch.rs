@@ -121,6 +121,64 @@ fn pow2_at_least(x: f64) -> f64 {
     }
 }
 
+/// How a Phong patch's shading normal is chosen.
+#[derive(Clone, Copy, Debug, Default, PartialEq, Eq, Hash)]
+pub enum ShadingNormal {
+    /// The interpolated normal, bent just enough that the view vector reflected about it stays
+    /// above the true surface (Keller et al. 2017, "The Iray Light Transport Simulation and
+    /// Rendering System", appendix A.3). Equal to the interpolated normal wherever the reflection
+    /// is above the surface, and continuous at the switch: the default.
+    #[default]
+    Adapted,
+    /// Ogaki & Tokuyoshi §4: the interpolated normal, switched to the true normal where the
+    /// reflected view vector falls below the surface. Discontinuous at the switch.
+    Paper,
+    /// The plain interpolated vertex normal, `normalize(w n0 + u n1 + v n2)`.
+    Interpolated,
+}
+
+impl ShadingNormal {
+    /// Every rule, the default first.
+    pub const ALL: [ShadingNormal; 3] = [ShadingNormal::Adapted, ShadingNormal::Paper, ShadingNormal::Interpolated];
+
+    /// The rule's name as the command line and scene files spell it.
+    pub fn name(self) -> &'static str {
+        match self {
+            ShadingNormal::Adapted => "adapted",
+            ShadingNormal::Paper => "paper",
+            ShadingNormal::Interpolated => "interpolated",
+        }
+    }
+
+    /// The rule named `s` (see [`ShadingNormal::name`]).
+    pub fn from_name(s: &str) -> Option<Self> {
+        Self::ALL.into_iter().find(|r| r.name() == s)
+    }
+}
+
+/// Bend the shading normal `ns` so that the view vector `wo` reflected about it does not fall
+/// below the true surface (normal `ng`); `wo`, `ng` and `ns` are unit and on one side
+/// (`wo·ng >= 0`, `ns·ng > 0`). Where the reflection `r` is below, it is pushed along `ns` onto
+/// the tangent plane and the normal becomes the half vector of `wo` and the pushed `r`: at the
+/// switch (`r·ng = 0`) that half vector is `ns` itself, so the result is continuous.
+pub fn adapt_shading_normal<T: Real>(wo: V3<T>, ng: V3<T>, ns: V3<T>) -> V3<T> {
+    let two = T::ONE + T::ONE;
+    // Compute the reflection and how far below the surface it points.
+    let r = ns * (two * wo.dot(ns)) - wo;
+    let a = r.dot(ng);
+    if !(a < T::ZERO) {
+        return ns;
+    }
+    let b = ns.dot(ng);
+    // Compute the pushed reflection, on the tangent plane: (r + s ns)·ng = 0.
+    let tangent = (r + ns * (-a / b)).normalized();
+    match tangent.and_then(|t| (wo + t).normalized()) {
+        Some(n) if n.dot(ng) > T::ZERO => n,
+        // A grazing view (wo on the tangent plane too) or a normal on it: the true normal.
+        _ => ng,
+    }
+}
+
 impl<T: Real> Patch<T> {
     /// A patch from 3 positions, 3 normals (normalised here) and `alpha` in [0, 1].
     pub fn new(p: [glam::DVec3; 3], n: [glam::DVec3; 3], alpha: f64) -> Self {
@@ -267,22 +325,68 @@ impl<T: Real> Patch<T> {
         (self.n[0] * w + self.n[1] * u + self.n[2] * v).normalized()
     }
 
-    /// The shading normal of Ogaki & Tokuyoshi §4 for a ray arriving along `dir`: the
-    /// interpolated normal, except where the view vector reflected about it would fall below the
-    /// true surface, where the true normal is used. Faces the side the ray came from.
+    /// The default shading normal ([`ShadingNormal::Adapted`]) for a ray arriving along `dir`,
+    /// facing the side the ray came from.
     pub fn shading_normal(&self, u: T, v: T, dir: V3<T>) -> Option<V3<T>> {
+        self.shading_normal_with(u, v, dir, ShadingNormal::default())
+    }
+
+    /// The shading normal at `(u, v)` for a ray arriving along `dir` under `rule`, facing the
+    /// side the ray came from (unit). `None` where `dir` or the true normal is degenerate.
+    pub fn shading_normal_with(&self, u: T, v: T, dir: V3<T>, rule: ShadingNormal) -> Option<V3<T>> {
+        // Compute both normals towards the viewer.
         let ng = self.geometric_normal(u, v)?;
         let d = dir.normalized()?;
-        // Both normals towards the viewer.
         let ng = if ng.dot(d) > T::ZERO { -ng } else { ng };
         let ns = match self.interpolated_normal(u, v) {
             Some(n) if n.dot(ng) > T::ZERO => n,
             Some(n) => -n,
             None => return Some(ng),
         };
-        let two = T::ONE + T::ONE;
-        let r = d - ns * (two * d.dot(ns));
-        Some(if r.dot(ng) < T::ZERO { ng } else { ns })
+        Some(match rule {
+            ShadingNormal::Interpolated => ns,
+            ShadingNormal::Paper => {
+                let two = T::ONE + T::ONE;
+                let r = d - ns * (two * d.dot(ns));
+                if r.dot(ng) < T::ZERO {
+                    ng
+                } else {
+                    ns
+                }
+            }
+            ShadingNormal::Adapted => adapt_shading_normal(-d, ng, ns),
+        })
+    }
+
+    /// The world-space corner positions `(p0, p1, p2)`.
+    pub fn corners(&self) -> [V3<T>; 3] {
+        [self.eval(T::ZERO, T::ZERO), self.eval(T::ONE, T::ZERO), self.eval(T::ZERO, T::ONE)]
+    }
+
+    /// How far to lift a shadow ray's origin off the surface point at `(u, v)`, as a world-space
+    /// vector, on the side `side` (+1: the vertex normals' side, -1: the other).
+    ///
+    /// This is Hanika's shadow-terminator offset ("Hacking the Shadow Terminator", Ray Tracing Gems
+    /// II, ch. 4, 2021) taken from the surface point itself: the point is moved up to each corner's
+    /// tangent plane where it lies below it, `Σ b_i max(0, (p_i - P)·n_i) n_i`. A shadow ray from
+    /// the lifted point clears the patch's own bulge, so hard shadows follow the shading normal
+    /// instead of each patch's own true-normal terminator. The lift depends only on `(u, v)` and
+    /// the corners shared across an edge, so it is continuous across smooth edges.
+    pub fn shadow_lift(&self, u: T, v: T, side: T) -> V3<T> {
+        // Compute the point and barycentrics in the local frame.
+        let p = self.eval_local(u, v);
+        let b = [T::ONE - u - v, u, v];
+        let q = [self.f, self.eval_local(T::ONE, T::ZERO), self.eval_local(T::ZERO, T::ONE)];
+        // Compute each corner's lift along its own normal, and blend.
+        let mut lift = V3::zero();
+        for i in 0..3 {
+            let n = self.n[i] * side;
+            let h = (q[i] - p).dot(n);
+            if h > T::ZERO {
+                lift = lift + n * (h * b[i].max(T::ZERO));
+            }
+        }
+        lift * self.scale
     }
 
     /// World-space bounds.

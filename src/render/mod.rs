@@ -4,6 +4,7 @@
 pub mod camera;
 pub mod image_out;
 pub mod scene_file;
+pub mod smoothness;
 pub mod text;
 pub mod world;
 
@@ -17,7 +18,9 @@ use rayon::prelude::*;
 
 pub use camera::{Camera, CameraFrame};
 pub use image_out::{linear_to_srgb, Image};
-pub use world::{AmbientOcclusion, Effects, Light, ObjectMode, ObjectSettings, Rng, Surface, World};
+pub use world::{
+    AmbientOcclusion, Effects, Ground, Light, ObjectMode, ObjectSettings, Rng, Surface, Terminator, World,
+};
 
 use crate::embree::{self, Ray};
 
@@ -50,11 +53,13 @@ pub struct RayCounts {
     pub reflection: u64,
     pub refraction: u64,
     pub ambient_occlusion: u64,
+    /// Short rays that check a shadow-ray origin lift is clear (see [`world::Terminator::Lift`]).
+    pub terminator: u64,
 }
 
 impl RayCounts {
     pub fn total(&self) -> u64 {
-        self.primary + self.shadow + self.reflection + self.refraction + self.ambient_occlusion
+        self.primary + self.shadow + self.reflection + self.refraction + self.ambient_occlusion + self.terminator
     }
 
     fn add(&mut self, o: &RayCounts) {
@@ -63,6 +68,7 @@ impl RayCounts {
         self.reflection += o.reflection;
         self.refraction += o.refraction;
         self.ambient_occlusion += o.ambient_occlusion;
+        self.terminator += o.terminator;
     }
 }
 
@@ -74,6 +80,7 @@ impl std::fmt::Display for RayCounts {
             (self.reflection, "reflection"),
             (self.refraction, "refraction"),
             (self.ambient_occlusion, "ambient occlusion"),
+            (self.terminator, "terminator lift"),
         ] {
             if n > 0 {
                 write!(f, ", {n} {k}")?;

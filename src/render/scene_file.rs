@@ -57,6 +57,18 @@ pub struct SceneFile {
     pub ambient_occlusion: Option<AoSection>,
     /// Crease angle for computed normals (degrees).
     pub crease_angle: Option<f32>,
+    /// A ground plane under the scene, receiving its shadows.
+    pub ground: Option<GroundSection>,
+}
+
+/// `[ground]`: a flat diffuse plane perpendicular to the camera's up.
+#[derive(Debug, Default, Deserialize, Clone, PartialEq)]
+#[serde(deny_unknown_fields)]
+pub struct GroundSection {
+    /// Where the plane lies along the up axis (default: the bottom of the scene bounds).
+    pub height: Option<f32>,
+    /// Diffuse reflectance (default 0.6 grey).
+    pub kd: Option<[f32; 3]>,
 }
 
 #[derive(Debug, Default, Deserialize, Clone, PartialEq)]
@@ -77,6 +89,10 @@ pub struct RenderSection {
     pub max_depth: Option<u32>,
     pub background: Option<[f32; 3]>,
     pub ambient: Option<[f32; 3]>,
+    /// Shading normal of Phong surfaces: "adapted" (default), "paper" or "interpolated".
+    pub shading: Option<String>,
+    /// Terminator of Phong surfaces: "lift" (default), "plain" or "band".
+    pub terminator: Option<String>,
 }
 
 #[derive(Debug, Deserialize, Clone, PartialEq)]
@@ -284,6 +300,24 @@ impl SceneFile {
                     "ambient_occlusion.distance".into(),
                     format!("{} is not a positive number", ao.distance),
                 ));
+            }
+        }
+        if let Some(s) = &r.shading {
+            if crate::phong::ShadingNormal::from_name(s).is_none() {
+                return Err(bad("render.shading".into(), format!("{s:?} is not adapted, paper or interpolated")));
+            }
+        }
+        if let Some(s) = &r.terminator {
+            if crate::render::Terminator::from_name(s).is_none() {
+                return Err(bad("render.terminator".into(), format!("{s:?} is not lift, plain or band")));
+            }
+        }
+        if let Some(g) = &self.ground {
+            if let Some(h) = g.height {
+                finite("ground.height", &[h])?;
+            }
+            if let Some(kd) = g.kd {
+                nonneg("ground.kd", &kd)?;
             }
         }
         if let Some(a) = self.crease_angle {

@@ -8,6 +8,7 @@ use glam::Vec3;
 use super::RayCounts;
 use crate::embree::{Device, GeometryOptions, Hit, PhongMesh, Ray, Scene, UserGeometryOptions};
 use crate::phong::accuracy::SplitMix;
+use crate::phong::ShadingNormal;
 use crate::scene as sc;
 
 /// How an object's surface is made.
@@ -75,6 +76,94 @@ impl Surface {
 
     pub fn refracts(&self) -> bool {
         self.transmission > 0.0
+    }
+}
+
+/// How light is cut off at the shading terminator of a Phong surface, where the shading normal
+/// and the true surface disagree about which side faces the light.
+#[derive(Clone, Copy, Debug, Default, PartialEq, Eq)]
+pub enum Terminator {
+    /// `max(0, n·l)` with the shading normal `n`, and shadow rays whose origin is lifted off the
+    /// surface by Hanika's offset (see [`crate::phong::Patch::shadow_lift`]) where the true surface
+    /// turns away from the light, so hard shadows follow the shading normal's terminator. The lift
+    /// is refused where a short ray finds other geometry in its way (thin, two-sided and
+    /// non-manifold surfaces), and taken on the side the shading point is seen from. The default.
+    #[default]
+    Lift,
+    /// `max(0, n·l)` with shadow rays from the true surface: hard shadows follow each patch's own
+    /// true-normal terminator (a sawtooth).
+    Plain,
+    /// The former rule: zero where the true surface faces away, Chiang et al. 2019's shadowing term
+    /// in a band built from the true normal. The true normal jumps at every patch edge, so the band
+    /// draws crescents; kept only for comparison.
+    Band,
+}
+
+impl Terminator {
+    /// Every rule, the default first.
+    pub const ALL: [Terminator; 3] = [Terminator::Lift, Terminator::Plain, Terminator::Band];
+
+    /// The rule's name as the command line and scene files spell it.
+    pub fn name(self) -> &'static str {
+        match self {
+            Terminator::Lift => "lift",
+            Terminator::Plain => "plain",
+            Terminator::Band => "band",
+        }
+    }
+
+    /// The rule named `s` (see [`Terminator::name`]).
+    pub fn from_name(s: &str) -> Option<Self> {
+        Self::ALL.into_iter().find(|r| r.name() == s)
+    }
+}
+
+/// A ground plane under the scene, receiving its shadows (flat, diffuse).
+#[derive(Clone, Copy, Debug, PartialEq)]
+pub struct Ground {
+    /// The plane's normal (unit): the camera's up axis.
+    pub up: Vec3,
+    /// Where the plane is along `up`; `None`: at the bottom of the scene bounds.
+    pub height: Option<f32>,
+    /// Diffuse reflectance.
+    pub kd: Vec3,
+}
+
+impl Default for Ground {
+    fn default() -> Self {
+        Ground { up: Vec3::Y, height: None, kd: Vec3::splat(0.6) }
+    }
+}
+
+impl Ground {
+    /// The plane as two triangles `(positions, indices)` under `bounds`, wide enough to fill any
+    /// view that frames the bounds (40 times their diagonal), front side towards `up`. `None`
+    /// for a zero or non-finite `up` or height.
+    pub fn triangles(&self, bounds: (Vec3, Vec3)) -> Option<(Vec<Vec3>, Vec<[u32; 3]>)> {
+        let up = self.up.try_normalize().filter(|u| u.is_finite())?;
+        let (lo, hi) = bounds;
+        let center = 0.5 * (lo + hi);
+        let diag = (hi - lo).length().max(f32::MIN_POSITIVE);
+        // The lowest corner of the bounds along `up`.
+        let corners = (0..8).map(|k| {
+            Vec3::new(
+                if k & 1 == 0 { lo.x } else { hi.x },
+                if k & 2 == 0 { lo.y } else { hi.y },
+                if k & 4 == 0 { lo.z } else { hi.z },
+            )
+        });
+        let bottom = corners.map(|c| c.dot(up)).fold(f32::INFINITY, f32::min);
+        let h = self.height.unwrap_or(bottom);
+        if !h.is_finite() {
+            return None;
+        }
+        let o = center + (h - center.dot(up)) * up;
+        let (t, b) = orthonormal_basis(up);
+        let r = 20.0 * diag;
+        let positions = vec![o - r * t - r * b, o + r * t - r * b, o + r * t + r * b, o - r * t + r * b];
+        // Counter-clockwise seen from above, so the front faces `up`.
+        let (i0, i1) = if t.cross(b).dot(up) > 0.0 { ([0, 1, 2], [0, 2, 3]) } else { ([0, 2, 1], [0, 3, 2]) };
+        Some((positions, vec![i0, i1]))
     }
 }
 
@@ -163,6 +252,10 @@ pub struct World {
     pub bounds: (Vec3, Vec3),
     pub ambient_occlusion: Option<AmbientOcclusion>,
     pub max_depth: u32,
+    /// The shading-normal rule of Phong objects (flat ones interpolate).
+    pub shading: ShadingNormal,
+    /// The terminator rule of Phong objects (flat ones keep the classic faceted terminator).
+    pub terminator: Terminator,
 }
 
 /// The default key light: from the upper left behind the camera, casting shadows.
@@ -179,6 +272,17 @@ impl World {
     pub fn from_scene(
         device: &Device,
         input: &sc::Scene,
+        settings: impl Fn(usize, &sc::Mesh) -> ObjectSettings,
+    ) -> anyhow::Result<World> {
+        Self::from_scene_with_ground(device, input, None, settings)
+    }
+
+    /// As [`World::from_scene`], with a ground plane under the scene's bounds (the last object,
+    /// named "ground"; the bounds and so the camera's framing leave it out).
+    pub fn from_scene_with_ground(
+        device: &Device,
+        input: &sc::Scene,
+        ground: Option<Ground>,
         settings: impl Fn(usize, &sc::Mesh) -> ObjectSettings,
     ) -> anyhow::Result<World> {
         let mut scene = Scene::new(device)?;
@@ -225,6 +329,22 @@ impl World {
                 phong,
             });
         }
+        if let Some(g) = ground {
+            let (positions, indices) = g
+                .triangles(input.bounds())
+                .context("ground: the up direction or height is zero or not finite")?;
+            let id = scene.attach_triangles(&positions, &indices, GeometryOptions::default())?;
+            anyhow::ensure!(id as usize == objects.len(), "unexpected geomID {id}");
+            objects.push(Object {
+                name: "ground".into(),
+                mode: ObjectMode::Flat,
+                normals: vec![g.up.normalize(); positions.len()],
+                positions,
+                indices,
+                surface: Surface::diffuse(g.kd),
+                phong: None,
+            });
+        }
         scene.commit()?;
         Ok(World {
             device: device.clone(),
@@ -236,6 +356,8 @@ impl World {
             bounds: input.bounds(),
             ambient_occlusion: None,
             max_depth: 6,
+            shading: ShadingNormal::default(),
+            terminator: Terminator::default(),
         })
     }
 
@@ -269,7 +391,7 @@ impl World {
         let Some(obj) = self.objects.get(hit.geom_id as usize) else {
             return self.background;
         };
-        let sp = obj.surface_point(&hit, &ray);
+        let sp = obj.surface_point(&hit, &ray, self.shading, self.terminator);
         let s = obj.surface;
         let mut c = Vec3::ZERO;
 
@@ -365,11 +487,38 @@ impl World {
         }
     }
 
-    /// Trace a shadow ray from the offset surface point along `dir` over `(0, tfar)`.
+    /// Trace a shadow ray from the offset surface point along `dir` over `(0, tfar)`: from the
+    /// lifted point (see [`Terminator::Lift`]) where the true surface turns away from the light.
     fn blocked(&self, sp: &SurfacePoint, dir: Vec3, tfar: f32, counts: &mut RayCounts) -> bool {
+        let o = self.shadow_origin(sp, dir, counts);
         counts.shadow += 1;
-        let o = sp.offset_origin(dir);
         self.scene.occluded1(Ray::new(o, dir).with_range(0.0, tfar))
+    }
+
+    /// The origin of a shadow ray along `dir`. With [`Terminator::Lift`], the surface point is
+    /// lifted by `w · lift`, where `w = clamp(1 - (ng·l) / LIFT_CUTOFF, 0, 1)` fades the lift in as
+    /// the true surface turns away from the light `l` (so it acts only near the terminator), and
+    /// only if a ray from the surface point to the lifted one meets nothing: the lift never moves
+    /// an origin through another sheet of geometry.
+    fn shadow_origin(&self, sp: &SurfacePoint, dir: Vec3, counts: &mut RayCounts) -> Vec3 {
+        const LIFT_CUTOFF: f32 = 0.1;
+        if sp.lift == Vec3::ZERO {
+            return sp.offset_origin(dir);
+        }
+        let l = dir.normalize_or_zero();
+        let w = (1.0 - sp.ng.dot(l) / LIFT_CUTOFF).clamp(0.0, 1.0);
+        if !(w > 0.0) || !(sp.n.dot(l) > 0.0) {
+            return sp.offset_origin(dir);
+        }
+        let lift = w * sp.lift;
+        counts.terminator += 1;
+        if self.scene.occluded1(Ray::new(sp.offset_origin(lift), lift).with_range(0.0, 1.0)) {
+            return sp.offset_origin(dir);
+        }
+        let p = sp.p + lift;
+        // The sum rounds: its error joins the point's.
+        let lifted = SurfacePoint { p, p_error: sp.p_error + gamma(1) * p.abs(), ..*sp };
+        lifted.offset_origin(dir)
     }
 
     /// Fraction of the cosine-weighted hemisphere not blocked within `ao.distance`.
@@ -410,12 +559,17 @@ pub struct SurfacePoint {
     pub n: Vec3,
     /// Whether the ray arrived from the front (the side `dp/du x dp/dv` points to).
     pub entering: bool,
-    /// Apply the shadow-terminator term (Phong surfaces; flat ones keep the classic artefact).
-    pub smooth_terminator: bool,
+    /// The terminator rule (Phong surfaces; flat ones use [`Terminator::Plain`] with no lift and
+    /// keep the classic faceted terminator).
+    pub terminator: Terminator,
+    /// The shadow-ray origin lift on the side the ray came from (zero for flat surfaces and
+    /// unless the rule is [`Terminator::Lift`]).
+    pub lift: Vec3,
 }
 
 impl SurfacePoint {
-    /// The light a direction `l` (unit) brings in, as a factor of `n·l`. On Phong surfaces the
+    /// The light a direction `l` (unit) brings in, as a factor of `n·l`: `max(0, n·l)` except
+    /// with [`Terminator::Band`], kept for comparison, where it is as follows. On Phong surfaces the
     /// shading normal `n` and the true normal `ng` differ, and where `n·l > 0` but the true
     /// surface faces away, a shadow ray would be blocked by the surface itself: a jagged hard
     /// terminator. So: 0 where the true surface faces away (no shadow ray needed); in the band
@@ -427,7 +581,7 @@ impl SurfacePoint {
         if cos_s <= 0.0 {
             return 0.0;
         }
-        if !self.smooth_terminator {
+        if self.terminator != Terminator::Band {
             return cos_s;
         }
         let band = 2.0 * (self.n - self.ng).length();
@@ -507,7 +661,13 @@ impl Object {
 
     /// The shading point of a hit: position recomputed from `(u, v)` on the surface, with its
     /// error bound, and normals facing the ray.
-    pub fn surface_point(&self, hit: &Hit, ray: &Ray) -> SurfacePoint {
+    pub fn surface_point(
+        &self,
+        hit: &Hit,
+        ray: &Ray,
+        shading: ShadingNormal,
+        terminator: Terminator,
+    ) -> SurfacePoint {
         let ng_raw = hit.ng.try_normalize().unwrap_or(-ray.dir.normalize_or_zero());
         let (p, p_error, n_shade) = match self.mode {
             ObjectMode::Flat => {
@@ -524,8 +684,9 @@ impl Object {
                         let p = ray.at(hit.t);
                         (p, gamma(7) * (ray.org.abs() + (hit.t * ray.dir).abs()))
                     });
-                let n =
-                    pm.and_then(|m| m.shading_normal(hit.prim_id, hit.u, hit.v, ray.dir)).unwrap_or(ng_raw);
+                let n = pm
+                    .and_then(|m| m.shading_normal_with(hit.prim_id, hit.u, hit.v, ray.dir, shading))
+                    .unwrap_or(ng_raw);
                 (p, err, n)
             }
         };
@@ -533,8 +694,20 @@ impl Object {
         let ng = if entering { ng_raw } else { -ng_raw };
         // The shading normal on the same side as the geometric one.
         let n = if n_shade.dot(ng) < 0.0 { -n_shade } else { n_shade };
-        let smooth_terminator = matches!(self.mode, ObjectMode::Phong { .. });
-        SurfacePoint { p, p_error, ng, n, entering, smooth_terminator }
+        let (terminator, lift) = match (self.mode, &self.phong) {
+            (ObjectMode::Phong { .. }, Some(pm)) => {
+                let lift = if terminator == Terminator::Lift {
+                    // The side the ray came from, relative to the vertex normals.
+                    let side = if entering { 1.0 } else { -1.0 };
+                    pm.shadow_lift(hit.prim_id, hit.u, hit.v, side)
+                } else {
+                    Vec3::ZERO
+                };
+                (terminator, lift)
+            }
+            _ => (Terminator::Plain, Vec3::ZERO),
+        };
+        SurfacePoint { p, p_error, ng, n, entering, terminator, lift }
     }
 
     /// `(1-u-v) p0 + u p1 + v p2` with its rounding error bound (pbrt-v4's barycentric bound).
