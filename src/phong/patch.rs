@@ -139,7 +139,8 @@ pub enum ShadingNormal {
 
 impl ShadingNormal {
     /// Every rule, the default first.
-    pub const ALL: [ShadingNormal; 3] = [ShadingNormal::Adapted, ShadingNormal::Paper, ShadingNormal::Interpolated];
+    pub const ALL: [ShadingNormal; 3] =
+        [ShadingNormal::Adapted, ShadingNormal::Paper, ShadingNormal::Interpolated];
 
     /// The rule's name as the command line and scene files spell it.
     pub fn name(self) -> &'static str {
@@ -158,20 +159,24 @@ impl ShadingNormal {
 
 /// Bend the shading normal `ns` so that the view vector `wo` reflected about it does not fall
 /// below the true surface (normal `ng`); `wo`, `ng` and `ns` are unit and on one side
-/// (`wo·ng >= 0`, `ns·ng > 0`). Where the reflection `r` is below, it is pushed along `ns` onto
-/// the tangent plane and the normal becomes the half vector of `wo` and the pushed `r`: at the
-/// switch (`r·ng = 0`) that half vector is `ns` itself, so the result is continuous.
+/// (`wo·ng >= 0`, `ns·ng > 0`). Where the reflection `r` is below `r·ng = q` (a margin of
+/// `q = min(0.01, wo·ng / 2)` above the tangent plane), it is pushed along `ns` up to it and the
+/// normal becomes the half vector of `wo` and the pushed `r`: at the switch (`r·ng = q`) that half
+/// vector is `ns` itself, so the result is continuous.
 pub fn adapt_shading_normal<T: Real>(wo: V3<T>, ng: V3<T>, ns: V3<T>) -> V3<T> {
     let two = T::ONE + T::ONE;
     // Compute the reflection and how far below the surface it points.
     let r = ns * (two * wo.dot(ns)) - wo;
     let a = r.dot(ng);
-    if !(a < T::ZERO) {
+    // Compute the margin kept above the tangent plane: a reflection exactly on it would graze
+    // the surface it leaves and, after rounding, hit it again.
+    let q = T::from_f64(0.01).min(wo.dot(ng) * T::from_f64(0.5));
+    if !(a < q) {
         return ns;
     }
     let b = ns.dot(ng);
-    // Compute the pushed reflection, on the tangent plane: (r + s ns)·ng = 0.
-    let tangent = (r + ns * (-a / b)).normalized();
+    // Compute the pushed reflection, just above the tangent plane: (r + s ns)·ng = q.
+    let tangent = (r + ns * ((q - a) / b)).normalized();
     match tangent.and_then(|t| (wo + t).normalized()) {
         Some(n) if n.dot(ng) > T::ZERO => n,
         // A grazing view (wo on the tangent plane too) or a normal on it: the true normal.

@@ -59,7 +59,12 @@ pub struct RayCounts {
 
 impl RayCounts {
     pub fn total(&self) -> u64 {
-        self.primary + self.shadow + self.reflection + self.refraction + self.ambient_occlusion + self.terminator
+        self.primary
+            + self.shadow
+            + self.reflection
+            + self.refraction
+            + self.ambient_occlusion
+            + self.terminator
     }
 
     fn add(&mut self, o: &RayCounts) {

@@ -304,7 +304,10 @@ impl SceneFile {
         }
         if let Some(s) = &r.shading {
             if crate::phong::ShadingNormal::from_name(s).is_none() {
-                return Err(bad("render.shading".into(), format!("{s:?} is not adapted, paper or interpolated")));
+                return Err(bad(
+                    "render.shading".into(),
+                    format!("{s:?} is not adapted, paper or interpolated"),
+                ));
             }
         }
         if let Some(s) = &r.terminator {

@@ -41,7 +41,9 @@ pub fn shading_steps(rgb: &[u8], width: u32, height: u32, threshold: f32, margin
     // Erode it, so only pixels well inside the silhouette remain.
     for _ in 0..margin {
         let m = mask.clone();
-        let at = |x: isize, y: isize| x >= 0 && y >= 0 && (x as usize) < w && (y as usize) < h && m[y as usize * w + x as usize];
+        let at = |x: isize, y: isize| {
+            x >= 0 && y >= 0 && (x as usize) < w && (y as usize) < h && m[y as usize * w + x as usize]
+        };
         for y in 0..h as isize {
             for x in 0..w as isize {
                 mask[y as usize * w + x as usize] =

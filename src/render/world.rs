@@ -500,7 +500,7 @@ impl World {
     /// the true surface turns away from the light `l` (so it acts only near the terminator), and
     /// only if a ray from the surface point to the lifted one meets nothing: the lift never moves
     /// an origin through another sheet of geometry.
-    fn shadow_origin(&self, sp: &SurfacePoint, dir: Vec3, counts: &mut RayCounts) -> Vec3 {
+    pub fn shadow_origin(&self, sp: &SurfacePoint, dir: Vec3, counts: &mut RayCounts) -> Vec3 {
         const LIFT_CUTOFF: f32 = 0.1;
         if sp.lift == Vec3::ZERO {
             return sp.offset_origin(dir);

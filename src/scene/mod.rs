@@ -70,6 +70,28 @@ pub struct Mesh {
 }
 
 impl Mesh {
+    /// A mesh from its own arrays: each vertex is its own position (no welding), and edges are
+    /// classified from the triangles.
+    pub fn from_triangles(
+        name: &str,
+        positions: Vec<Vec3>,
+        normals: Vec<Vec3>,
+        indices: Vec<[u32; 3]>,
+    ) -> Mesh {
+        let position_ids = (0..positions.len() as u32).collect::<Vec<_>>();
+        let edge_kinds = classify_edges(&indices, &position_ids);
+        Mesh {
+            name: name.into(),
+            positions,
+            normals,
+            indices,
+            material: None,
+            position_ids,
+            edge_kinds,
+            normals_source: NormalsSource::FromFile,
+        }
+    }
+
     /// Per triangle edge: whether Phong tessellation must keep it straight (every edge that is
     /// not smooth: a crease, a border or a non-manifold edge), for watertight creases.
     pub fn straight_edges(&self) -> Vec<[bool; 3]> {
