@@ -38,14 +38,31 @@ unsigned int phongrt_attach_mesh(RTCScene scene,
 /* Free a mesh. Call only after every scene the mesh was attached to has been released. NULL is ignored. */
 void phongrt_mesh_release(phongrt_mesh* mesh);
 
+/* How the shading normal is chosen (see phongrt_shading_normal_rule). */
+typedef enum phongrt_shading_rule {
+    /* The Phong-interpolated normal, bent just enough that the view vector reflected about it stays
+     * above the true surface (Keller et al. 2017, the Iray shading-normal adaptation). Continuous;
+     * the default. */
+    PHONGRT_SHADING_ADAPTED = 0,
+    /* Ogaki & Tokuyoshi, section 4: the interpolated normal, switched to the true surface normal
+     * where the reflected view vector would fall below the surface. Discontinuous at the switch. */
+    PHONGRT_SHADING_PAPER = 1,
+    /* The plain interpolated vertex normal. */
+    PHONGRT_SHADING_INTERPOLATED = 2
+} phongrt_shading_rule;
+
 /*
- * The shading normal at (u, v) of triangle `prim_id` for a ray arriving along `ray_dir`: the
- * Phong-interpolated normal, or the true surface normal where the reflected view vector would fall
- * below the surface (Ogaki & Tokuyoshi, section 4). Unit length, facing the side the ray came from.
- * Returns 0 on success, -1 on bad input.
+ * The shading normal at (u, v) of triangle `prim_id` for a ray arriving along `ray_dir`, under the
+ * default rule (PHONGRT_SHADING_ADAPTED). Unit length, facing the side the ray came from.
+ * Returns 0 on success, -1 on bad input (NULL, a primitive out of range, a non-finite u, v or
+ * direction, a zero direction).
  */
 int phongrt_shading_normal(const phongrt_mesh* mesh, unsigned int prim_id, float u, float v,
                            const float ray_dir[3], float normal_out[3]);
+
+/* As phongrt_shading_normal, under `rule`. An unknown rule is bad input (-1). */
+int phongrt_shading_normal_rule(const phongrt_mesh* mesh, unsigned int prim_id, float u, float v,
+                                const float ray_dir[3], phongrt_shading_rule rule, float normal_out[3]);
 
 /* The surface point at (u, v) of triangle `prim_id` (object space). Returns 0 or -1. */
 int phongrt_surface_point(const phongrt_mesh* mesh, unsigned int prim_id, float u, float v,

@@ -4,7 +4,7 @@
 use glam::DVec3;
 use phongrt::phong::accuracy::{evaluate, generate, Category, Outcome, SplitMix};
 use phongrt::phong::reference::reference_intersect;
-use phongrt::phong::{intersect, solve_cubic, solve_quadratic, Method, Patch, Real, V3};
+use phongrt::phong::{intersect, solve_cubic, solve_quadratic, Method, Patch, Real, ShadingNormal, V3};
 use proptest::prelude::*;
 
 struct Stats {
@@ -302,18 +302,21 @@ fn derivatives_match_finite_differences() {
 }
 
 #[test]
-fn shading_normal_rule() {
+fn paper_shading_normal_switches_to_the_true_normal_and_adapted_bends_just_enough() {
     // A bulging patch: interpolated normals lean outwards.
     let n = [d3(-1.0, -1.0, 1.0), d3(1.0, -0.3, 1.0), d3(-0.3, 1.0, 1.0)];
     let p: Patch<f64> = Patch::new(P, n, 1.0);
     let (u, v) = (0.3, 0.3);
     let ng = p.geometric_normal(u, v).unwrap();
     let ni = p.interpolated_normal(u, v).unwrap();
-    // Head-on: the interpolated normal.
-    let s = p.shading_normal(u, v, V3::new(0.0, 0.0, -1.0)).unwrap();
-    assert!((s - ni).length() < 1e-12);
+    // Head-on: the interpolated normal, under every rule.
+    for rule in ShadingNormal::ALL {
+        let s = p.shading_normal_with(u, v, V3::new(0.0, 0.0, -1.0), rule).unwrap();
+        assert!((s - ni).length() < 1e-12, "{rule:?}");
+    }
     // Views whose reflection about the interpolated normal dips below the true surface get the
-    // true normal; the others keep the interpolated one.
+    // true normal under the paper's rule, and a normal whose reflection stays (just) above the
+    // surface under the adapted rule; the others keep the interpolated one.
     let mut rng = SplitMix(8);
     let (mut below, mut above) = (0, 0);
     for _ in 0..2000 {
@@ -322,13 +325,22 @@ fn shading_normal_rule() {
             continue; // from the front only
         }
         let r = d - ni * (2.0 * d.dot(ni));
-        let s = p.shading_normal(u, v, d).unwrap();
+        let paper = p.shading_normal_with(u, v, d, ShadingNormal::Paper).unwrap();
+        let adapted = p.shading_normal_with(u, v, d, ShadingNormal::Adapted).unwrap();
+        let interpolated = p.shading_normal_with(u, v, d, ShadingNormal::Interpolated).unwrap();
+        assert!((interpolated - ni).length() < 1e-12);
+        let ra = d - adapted * (2.0 * d.dot(adapted));
+        assert!(ra.dot(ng) >= -1e-9, "adapted reflection below the surface: {}", ra.dot(ng));
         if r.dot(ng) < 0.0 {
             below += 1;
-            assert!((s - ng).length() < 1e-12);
+            assert!((paper - ng).length() < 1e-12);
+            assert!((adapted - ni).length() > 0.0);
         } else {
             above += 1;
-            assert!((s - ni).length() < 1e-12);
+            assert!((paper - ni).length() < 1e-12);
+            if r.dot(ng) > 0.01 {
+                assert!((adapted - ni).length() < 1e-12);
+            }
         }
     }
     assert!(below > 10 && above > 100, "{below} {above}");

@@ -9,6 +9,7 @@ use glam::Vec3;
 use super::phong_geometry::PhongMesh;
 use super::sys;
 use super::user_geometry::{new_user_geometry, UserGeometryOptions};
+use crate::phong::ShadingNormal;
 
 thread_local! {
     static LAST_ERROR: RefCell<CString> = RefCell::new(CString::default());
@@ -140,14 +141,41 @@ pub unsafe extern "C" fn phongrt_shading_normal(
     ray_dir: *const f32,
     normal_out: *mut f32,
 ) -> c_int {
+    // SAFETY: the same contract as phongrt_shading_normal_rule's.
+    unsafe { phongrt_shading_normal_rule(mesh, prim_id, u, v, ray_dir, 0, normal_out) }
+}
+
+/// See `phongrt_shading_normal_rule` in include/phongrt.h. `rule` is the C enum's value.
+///
+/// # Safety
+/// `mesh` must be a live mesh; `ray_dir` must point to 3 floats and `normal_out` to 3 writable floats.
+#[no_mangle]
+pub unsafe extern "C" fn phongrt_shading_normal_rule(
+    mesh: *const phongrt_mesh,
+    prim_id: u32,
+    u: f32,
+    v: f32,
+    ray_dir: *const f32,
+    rule: c_int,
+    normal_out: *mut f32,
+) -> c_int {
     if mesh.is_null() || ray_dir.is_null() || normal_out.is_null() {
         set_error("phongrt_shading_normal: NULL argument");
         return -1;
     }
+    let rule = match rule {
+        0 => ShadingNormal::Adapted,
+        1 => ShadingNormal::Paper,
+        2 => ShadingNormal::Interpolated,
+        _ => {
+            set_error(&format!("phongrt_shading_normal_rule: unknown rule {rule} (0, 1 or 2)"));
+            return -1;
+        }
+    };
     let r = catch_unwind(AssertUnwindSafe(|| {
         // SAFETY: pointers are valid per the contract (checked non-NULL above).
         let (m, d) = unsafe { (&(*mesh).mesh, read_vec3s(ray_dir, 1)[0]) };
-        m.shading_normal(prim_id, u, v, d)
+        m.shading_normal_with(prim_id, u, v, d, rule)
     }));
     match r {
         Ok(Some(n)) => {

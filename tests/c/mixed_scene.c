@@ -116,6 +116,15 @@ int main(void) {
     float n[3], pt[3];
     CHECK(phongrt_shading_normal(mesh, rh.hit.primID, rh.hit.u, rh.hit.v, d, n) == 0, "shading normal");
     CHECK(n[0] * d[0] + n[1] * d[1] + n[2] * d[2] < -0.99f, "face %d: shading normal not radial", f);
+    /* Head-on, every rule gives the interpolated normal; an unknown rule is refused. */
+    for (int rule = 0; rule < 3; rule++) {
+      float m[3];
+      CHECK(phongrt_shading_normal_rule(mesh, rh.hit.primID, rh.hit.u, rh.hit.v, d, (phongrt_shading_rule)rule, m) == 0, "rule %d", rule);
+      CHECK(fabsf(m[0] - n[0]) + fabsf(m[1] - n[1]) + fabsf(m[2] - n[2]) < 1e-5f, "face %d: rule %d differs head-on", f, rule);
+    }
+    CHECK(phongrt_shading_normal_rule(mesh, rh.hit.primID, rh.hit.u, rh.hit.v, d, (phongrt_shading_rule)7, n) == -1, "unknown rule accepted");
+    CHECK(strstr(phongrt_last_error(), "unknown rule") != NULL, "unknown rule: error %s", phongrt_last_error());
+    CHECK(phongrt_shading_normal(mesh, rh.hit.primID, NAN, rh.hit.v, d, n) == -1, "NaN u accepted");
     CHECK(phongrt_surface_point(mesh, rh.hit.primID, rh.hit.u, rh.hit.v, pt) == 0, "surface point");
     float pr = sqrtf(pt[0] * pt[0] + pt[1] * pt[1] + pt[2] * pt[2]);
     CHECK(fabsf(pr - r) < 1e-4f, "face %d: surface point radius %f vs hit %f", f, pr, r);
