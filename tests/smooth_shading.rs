@@ -101,7 +101,8 @@ fn flat_sphere_fails_the_smoothness_check() {
 #[test]
 fn former_defaults_fail_the_smoothness_check() {
     let device = Device::new().unwrap();
-    // The true-normal band, the paper's switch and alpha 1: measured 279 (with the lift: 39).
+    // The true-normal band, the paper's switch and alpha 1 (the former defaults): measured 314, as
+    // on the old code.
     let s = Setup {
         mode: ObjectMode::Phong { alpha: 1.0 },
         shading: ShadingNormal::Paper,
