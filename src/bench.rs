@@ -81,7 +81,7 @@ impl UserPrimitives for PhongMesh64 {
     }
     fn bounds(&self, prim: u32) -> Option<(Vec3, Vec3)> {
         let p = self.patches.get(prim as usize)?;
-        if p.degenerate {
+        if p.degenerate() {
             return None;
         }
         let (lo, hi) = p.bounds();
@@ -266,8 +266,8 @@ fn build(device: &Device, m: &Mesh, method: BenchMethod, robust: bool) -> anyhow
             let mut pm =
                 PhongMesh::with_straight_edges(&m.positions, &m.normals, &m.indices, 1.0, Some(&straight))?;
             match method {
-                BenchMethod::NewtonF32 => pm.method = Method::Newton,
-                BenchMethod::AnalyticF32 => pm.method = Method::AnalyticPolished,
+                BenchMethod::NewtonF32 => pm.set_method(Method::Newton),
+                BenchMethod::AnalyticF32 => pm.set_method(Method::AnalyticPolished),
                 _ => {}
             }
             let own = pm.memory_bytes();
