@@ -7,8 +7,8 @@ use glam::Vec3;
 use rayon::prelude::*;
 
 use crate::embree::{
-    Device, GeometryOptions, PhongMesh, PrimHit, Ray, Scene, UserGeometryOptions, UserPrimitives,
-    UserTriangles,
+    Device, EmbreeError, GeometryOptions, PhongMesh, PhongMeshError, PrimHit, Ray, Scene,
+    UserGeometryOptions, UserPrimitives, UserTriangles,
 };
 use crate::phong::{control_points, intersect, Method, Patch, V3};
 use crate::render::Camera;
@@ -246,7 +246,21 @@ pub struct BenchRow {
     pub shaded_ms: f64,
 }
 
-fn build(device: &Device, m: &Mesh, method: BenchMethod, robust: bool) -> anyhow::Result<(Scene, usize)> {
+/// Why a bench scene could not be run.
+#[derive(Debug, thiserror::Error)]
+pub enum BenchError {
+    /// Embree refused the device or a method's scene.
+    #[error(transparent)]
+    Embree(#[from] EmbreeError),
+    /// The mesh was refused as a Phong mesh.
+    #[error(transparent)]
+    PhongMesh(#[from] PhongMeshError),
+    /// The mesh's bounds give no camera (empty or non-finite).
+    #[error("{0}: cannot frame a camera on its bounds")]
+    Camera(String),
+}
+
+fn build(device: &Device, m: &Mesh, method: BenchMethod, robust: bool) -> Result<(Scene, usize), BenchError> {
     let mut s = Scene::new(device)?;
     if robust {
         s.set_robust(true)?;
@@ -373,7 +387,7 @@ pub fn bench_scene(
     methods: &[BenchMethod],
     opts: &BenchOptions,
     mut progress: impl FnMut(&str),
-) -> anyhow::Result<Vec<BenchRow>> {
+) -> Result<Vec<BenchRow>, BenchError> {
     let BenchOptions { width, height, max_pretess_tris, robust } = *opts;
     let device = Device::new()?;
     let (lo, hi) = m
@@ -382,7 +396,7 @@ pub fn bench_scene(
         .fold((Vec3::splat(f32::MAX), Vec3::splat(f32::MIN)), |(a, b), p| (a.min(*p), b.max(*p)));
     let frame = Camera::frame_bounds(lo, hi, width as f32 / height as f32)
         .frame(width as f32 / height as f32)
-        .ok_or_else(|| anyhow::anyhow!("{name}: cannot frame a camera on its bounds"))?;
+        .ok_or_else(|| BenchError::Camera(name.to_string()))?;
     let rays: Vec<Ray> = (0..width * height)
         .map(|i| {
             Ray::new(
