@@ -300,6 +300,16 @@ fn a_filter_in_the_query_arguments_reaches_embree() {
     assert!(blocked(&filtered) < blocked(&plain), "{} vs {}", blocked(&filtered), blocked(&plain));
     // Without the flag the argument filter is not invoked.
     assert_eq!(with_argument_filter(&native, false), plain);
+    // The flag without a filter (all safe code) is harmless: Embree checks for NULL.
+    let flags = sys::RTCRayQueryFlags::RTC_RAY_QUERY_FLAG_INVOKE_ARGUMENT_FILTER;
+    for (r, expected) in rays(5000).into_iter().zip(&plain) {
+        let mut rh = phongrt::embree::scene::new_rayhit(r);
+        native.intersect1_raw(&mut rh, Some(&mut IntersectArgs::new().flags(flags))).unwrap();
+        let mut ray = phongrt::embree::scene::new_rayhit(r).ray;
+        native.occluded1_raw(&mut ray, Some(&mut OccludedArgs::new().flags(flags))).unwrap();
+        let got = ((rh.hit.geomID != u32::MAX).then_some(rh.hit.primID), ray.tfar == f32::NEG_INFINITY);
+        assert_eq!(&got, expected);
+    }
 }
 
 #[test]

@@ -6,7 +6,7 @@
 //! each candidate hit copies the instance ID stack, sets `tfar`, invokes the user's filter
 //! functions, and accepts or restores. No panic crosses into Embree: every callback body runs
 //! in `catch_unwind`, and the panic is resumed in the Rust caller of the query, or reported by
-//! `commit` (see [`super::panic`]).
+//! `commit` (see `src/embree/panic.rs`).
 
 use std::ffi::c_void;
 use std::sync::Arc;
