@@ -4,8 +4,10 @@
  * Attach a Phong mesh to your own RTCScene and trace it with rtcIntersect1/4/8/16 and
  * rtcOccluded1/4/8/16 as you would a triangle mesh: hits report geomID, primID, instID, u and v in
  * Embree's triangle convention ((1-u-v) v0 + u v1 + v v2 at alpha = 0) and Ng = the true surface
- * normal dp/du x dp/dv. Intersection and occlusion filters set on the geometry (or passed in the
- * query arguments) are invoked per candidate hit, as for triangles.
+ * normal dp/du x dp/dv. Intersection and occlusion filters set on the geometry are invoked per
+ * candidate hit, as for triangles (a filter passed in the query arguments is not: Embree 4 gives a
+ * user geometry no way to invoke it, rtcInvokeIntersectFilterFromGeometry runs the geometry's only). No panic in phongrt's callbacks
+ * (which would be a bug) unwinds into Embree or your program: the ray sees a miss.
  *
  * Link with -lphongrt (libphongrt.so or libphongrt.a) and -lembree4.
  */

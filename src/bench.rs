@@ -7,8 +7,8 @@ use glam::Vec3;
 use rayon::prelude::*;
 
 use crate::embree::{
-    Device, GeometryOptions, PhongMesh, PrimHit, Ray, Scene, UserGeometryOptions, UserPrimitives,
-    UserTriangles,
+    Device, EmbreeError, GeometryOptions, PhongMesh, PhongMeshError, PrimHit, Ray, Scene,
+    UserGeometryOptions, UserPrimitives, UserTriangles,
 };
 use crate::phong::{control_points, intersect, Method, Patch, V3};
 use crate::render::Camera;
@@ -81,7 +81,7 @@ impl UserPrimitives for PhongMesh64 {
     }
     fn bounds(&self, prim: u32) -> Option<(Vec3, Vec3)> {
         let p = self.patches.get(prim as usize)?;
-        if p.degenerate {
+        if p.degenerate() {
             return None;
         }
         let (lo, hi) = p.bounds();
@@ -246,7 +246,21 @@ pub struct BenchRow {
     pub shaded_ms: f64,
 }
 
-fn build(device: &Device, m: &Mesh, method: BenchMethod, robust: bool) -> anyhow::Result<(Scene, usize)> {
+/// Why a bench scene could not be run.
+#[derive(Debug, thiserror::Error)]
+pub enum BenchError {
+    /// Embree refused the device or a method's scene.
+    #[error(transparent)]
+    Embree(#[from] EmbreeError),
+    /// The mesh was refused as a Phong mesh.
+    #[error(transparent)]
+    PhongMesh(#[from] PhongMeshError),
+    /// The mesh's bounds give no camera (empty or non-finite).
+    #[error("{0}: cannot frame a camera on its bounds")]
+    Camera(String),
+}
+
+fn build(device: &Device, m: &Mesh, method: BenchMethod, robust: bool) -> Result<(Scene, usize), BenchError> {
     let mut s = Scene::new(device)?;
     if robust {
         s.set_robust(true)?;
@@ -266,8 +280,8 @@ fn build(device: &Device, m: &Mesh, method: BenchMethod, robust: bool) -> anyhow
             let mut pm =
                 PhongMesh::with_straight_edges(&m.positions, &m.normals, &m.indices, 1.0, Some(&straight))?;
             match method {
-                BenchMethod::NewtonF32 => pm.method = Method::Newton,
-                BenchMethod::AnalyticF32 => pm.method = Method::AnalyticPolished,
+                BenchMethod::NewtonF32 => pm.set_method(Method::Newton),
+                BenchMethod::AnalyticF32 => pm.set_method(Method::AnalyticPolished),
                 _ => {}
             }
             let own = pm.memory_bytes();
@@ -374,7 +388,7 @@ pub fn bench_scene(
     methods: &[BenchMethod],
     opts: &BenchOptions,
     mut progress: impl FnMut(&str),
-) -> anyhow::Result<Vec<BenchRow>> {
+) -> Result<Vec<BenchRow>, BenchError> {
     let BenchOptions { width, height, max_pretess_tris, robust } = *opts;
     let device = Device::new()?;
     let (lo, hi) = m
@@ -383,7 +397,7 @@ pub fn bench_scene(
         .fold((Vec3::splat(f32::MAX), Vec3::splat(f32::MIN)), |(a, b), p| (a.min(*p), b.max(*p)));
     let frame = Camera::frame_bounds(lo, hi, width as f32 / height as f32)
         .frame(width as f32 / height as f32)
-        .ok_or_else(|| anyhow::anyhow!("{name}: cannot frame a camera on its bounds"))?;
+        .ok_or_else(|| BenchError::Camera(name.to_string()))?;
     let rays: Vec<Ray> = (0..width * height)
         .map(|i| {
             Ray::new(

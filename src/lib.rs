@@ -10,6 +10,10 @@
 // Comparisons written `!(x > 0.0)` are deliberate throughout: they are true for NaN, which is
 // how bad input is turned away without a separate NaN test.
 #![allow(clippy::neg_cmp_op_on_partial_ord, clippy::nonminimal_bool)]
+// Every unsafe operation sits in an `unsafe` block with a `// SAFETY:` comment naming the Embree
+// (or Rust) guarantee it relies on, also inside `unsafe fn`.
+#![deny(unsafe_op_in_unsafe_fn)]
+#![warn(clippy::undocumented_unsafe_blocks)]
 
 pub mod bench;
 pub mod embree;

@@ -125,3 +125,39 @@ fn robust_mode_is_set_and_cleared_and_traces_the_same() {
     scene.set_robust(false).unwrap();
     assert!(!scene.robust());
 }
+
+#[test]
+fn a_refused_change_leaves_an_instanced_scene_committed_and_traced() {
+    // The child is instanced (and may be traced through the parent): changing it is refused, and
+    // the refusal must not un-commit it: its own rays still hit.
+    let device = Device::new().unwrap();
+    let mut child = unit_triangle_scene(&device, u32::MAX);
+    let mut parent = Scene::new(&device).unwrap();
+    parent.attach_instance(&child, Mat4::IDENTITY, u32::MAX).unwrap();
+    parent.commit().unwrap();
+    let r = Ray::new(Vec3::new(0.2, 0.3, 1.0), -Vec3::Z);
+    assert!(child.set_robust(true).is_err());
+    assert!(child
+        .attach_triangles(&[Vec3::ZERO, Vec3::X, Vec3::Y], &[[0, 1, 2]], Default::default())
+        .is_err());
+    assert!(child.is_committed());
+    assert!(child.intersect1(r).is_some(), "a refused change un-committed the scene");
+    assert!(child.occluded1(r));
+    assert!(parent.intersect1(r).is_some());
+}
+
+#[test]
+fn a_scene_instanced_elsewhere_cannot_be_recommitted() {
+    let device = Device::new().unwrap();
+    let mut child = unit_triangle_scene(&device, u32::MAX);
+    let mut parent = Scene::new(&device).unwrap();
+    parent.attach_instance(&child, Mat4::IDENTITY, u32::MAX).unwrap();
+    parent.commit().unwrap();
+    // Rebuilding the child's BVH while another thread may trace it through the parent is a race.
+    let err = child.commit().unwrap_err();
+    assert!(err.to_string().contains("instanced elsewhere"), "{err}");
+    assert!(child.is_committed(), "the refused commit changed nothing");
+    // Once the parent is gone, the child is its own again.
+    drop(parent);
+    child.commit().unwrap();
+}

@@ -1,7 +1,12 @@
 //! The user-geometry plumbing (callbacks, packets, filters, masks, instances), checked with
 //! flat triangles as user geometry against Embree's native triangles on the same rays.
 use glam::{Mat4, Vec3};
-use phongrt::embree::{sys, Device, GeometryOptions, Ray, Scene, UserGeometryOptions, UserTriangles};
+use std::panic::{catch_unwind, AssertUnwindSafe};
+
+use phongrt::embree::{
+    sys, Device, EmbreeError, GeometryOptions, IntersectArgs, OccludedArgs, PrimHit, QueryContext, Ray,
+    Scene, UserGeometryOptions, UserPrimitives, UserTriangles,
+};
 
 /// A small closed mesh: an octahedron around the origin.
 fn octahedron() -> (Vec<Vec3>, Vec<[u32; 3]>) {
@@ -86,7 +91,7 @@ fn packet_check<const N: usize>(native: &Scene, user: &Scene) {
                 let mut rh = sys::RTCRayHit4::default();
                 fill!(rh);
                 let v: &[i32; 4] = valid[..].try_into().unwrap();
-                user.intersect4(v, &mut rh, None);
+                user.intersect4(v, &mut rh, None).unwrap();
                 for (k, r) in chunk.iter().enumerate() {
                     let single = native.intersect1(*r);
                     if k == N - 1 {
@@ -102,7 +107,7 @@ fn packet_check<const N: usize>(native: &Scene, user: &Scene) {
                 for k in 0..N {
                     ray.tfar[k] = f32::INFINITY;
                 }
-                user.occluded4(v, &mut ray, None);
+                user.occluded4(v, &mut ray, None).unwrap();
                 for (k, r) in chunk.iter().enumerate().take(N - 1) {
                     assert_eq!(native.occluded1(*r), ray.tfar[k] == f32::NEG_INFINITY);
                 }
@@ -111,7 +116,7 @@ fn packet_check<const N: usize>(native: &Scene, user: &Scene) {
                 let mut rh = sys::RTCRayHit8::default();
                 fill!(rh);
                 let v: &[i32; 8] = valid[..].try_into().unwrap();
-                user.intersect8(v, &mut rh, None);
+                user.intersect8(v, &mut rh, None).unwrap();
                 for (k, r) in chunk.iter().enumerate().take(N - 1) {
                     let single = native.intersect1(*r);
                     assert_eq!(
@@ -123,7 +128,7 @@ fn packet_check<const N: usize>(native: &Scene, user: &Scene) {
                 for k in 0..N {
                     ray.tfar[k] = f32::INFINITY;
                 }
-                user.occluded8(v, &mut ray, None);
+                user.occluded8(v, &mut ray, None).unwrap();
                 for (k, r) in chunk.iter().enumerate().take(N - 1) {
                     assert_eq!(native.occluded1(*r), ray.tfar[k] == f32::NEG_INFINITY);
                 }
@@ -132,7 +137,7 @@ fn packet_check<const N: usize>(native: &Scene, user: &Scene) {
                 let mut rh = sys::RTCRayHit16::default();
                 fill!(rh);
                 let v: &[i32; 16] = valid[..].try_into().unwrap();
-                user.intersect16(v, &mut rh, None);
+                user.intersect16(v, &mut rh, None).unwrap();
                 for (k, r) in chunk.iter().enumerate().take(N - 1) {
                     let single = native.intersect1(*r);
                     assert_eq!(
@@ -147,7 +152,7 @@ fn packet_check<const N: usize>(native: &Scene, user: &Scene) {
                 for k in 0..N {
                     ray.tfar[k] = f32::INFINITY;
                 }
-                user.occluded16(v, &mut ray, None);
+                user.occluded16(v, &mut ray, None).unwrap();
                 for (k, r) in chunk.iter().enumerate().take(N - 1) {
                     assert_eq!(native.occluded1(*r), ray.tfar[k] == f32::NEG_INFINITY);
                 }
@@ -245,4 +250,188 @@ fn masks_and_instances_work_for_user_geometry() {
     r.mask = 0b01;
     assert!(top.intersect1(r).is_none(), "geometry mask ignored");
     assert!(!top.occluded1(r));
+}
+
+/// Whether each ray hits (primID) and is occluded, with `reject_even` passed in the query
+/// arguments (with or without the flag that invokes it).
+fn with_argument_filter(scene: &Scene, invoke: bool) -> Vec<(Option<u32>, bool)> {
+    let flags = if invoke {
+        sys::RTCRayQueryFlags::RTC_RAY_QUERY_FLAG_INVOKE_ARGUMENT_FILTER
+    } else {
+        sys::RTCRayQueryFlags::RTC_RAY_QUERY_FLAG_INCOHERENT
+    };
+    rays(5000)
+        .into_iter()
+        .map(|r| {
+            let mut context = QueryContext::new();
+            // SAFETY (test): `reject_even` reads the valid flags and primIDs of the lanes it is
+            // given and clears valid flags only; it cannot unwind.
+            let mut args =
+                unsafe { IntersectArgs::new().flags(flags).context(&mut context).filter(reject_even) };
+            let mut rh = phongrt::embree::scene::new_rayhit(r);
+            scene.intersect1_raw(&mut rh, Some(&mut args)).unwrap();
+            // SAFETY (test): as above.
+            let mut oargs = unsafe { OccludedArgs::new().flags(flags).filter(reject_even) };
+            let mut ray = phongrt::embree::scene::new_rayhit(r).ray;
+            scene.occluded1_raw(&mut ray, Some(&mut oargs)).unwrap();
+            ((rh.hit.geomID != u32::MAX).then_some(rh.hit.primID), ray.tfar == f32::NEG_INFINITY)
+        })
+        .collect()
+}
+
+#[test]
+fn a_filter_in_the_query_arguments_reaches_embree() {
+    // Native triangles: Embree runs the argument filter itself. (Embree 4 gives a user geometry's
+    // callback no way to run the argument filter: rtcInvokeIntersectFilterFromGeometry runs the
+    // geometry's filter only, as its docs say.)
+    let device = Device::new().unwrap();
+    let (native, _) = scenes(&device);
+    let plain: Vec<_> = rays(5000)
+        .into_iter()
+        .map(|r| (native.intersect1(r).map(|h| h.prim_id), native.occluded1(r)))
+        .collect();
+    let even = |v: &[(Option<u32>, bool)]| v.iter().filter(|(h, _)| h.is_some_and(|p| p % 2 == 0)).count();
+    let filtered = with_argument_filter(&native, true);
+    assert!(even(&plain) > 1000, "{}", even(&plain));
+    assert_eq!(even(&filtered), 0, "the argument filter was not invoked");
+    assert!(filtered.iter().filter(|(h, _)| h.is_some()).count() > 1000);
+    // Occlusion: a ray blocked only by even primitives is not occluded under the filter.
+    let blocked = |v: &[(Option<u32>, bool)]| v.iter().filter(|(_, o)| *o).count();
+    assert!(blocked(&filtered) < blocked(&plain), "{} vs {}", blocked(&filtered), blocked(&plain));
+    // Without the flag the argument filter is not invoked.
+    assert_eq!(with_argument_filter(&native, false), plain);
+    // The flag without a filter (all safe code) is harmless: Embree checks for NULL.
+    let flags = sys::RTCRayQueryFlags::RTC_RAY_QUERY_FLAG_INVOKE_ARGUMENT_FILTER;
+    for (r, expected) in rays(5000).into_iter().zip(&plain) {
+        let mut rh = phongrt::embree::scene::new_rayhit(r);
+        native.intersect1_raw(&mut rh, Some(&mut IntersectArgs::new().flags(flags))).unwrap();
+        let mut ray = phongrt::embree::scene::new_rayhit(r).ray;
+        native.occluded1_raw(&mut ray, Some(&mut OccludedArgs::new().flags(flags))).unwrap();
+        let got = ((rh.hit.geomID != u32::MAX).then_some(rh.hit.primID), ray.tfar == f32::NEG_INFINITY);
+        assert_eq!(&got, expected);
+    }
+}
+
+#[test]
+fn queries_on_an_uncommitted_scene_are_refused_and_leave_the_rays_alone() {
+    let device = Device::new().unwrap();
+    let (p, i) = octahedron();
+    let mut scene = Scene::new(&device).unwrap();
+    scene.attach_user(UserTriangles { positions: p, indices: i }, UserGeometryOptions::default()).unwrap();
+    let r = Ray::new(Vec3::new(0.1, 0.1, 3.0), -Vec3::Z);
+    let mut rh = phongrt::embree::scene::new_rayhit(r);
+    assert_eq!(scene.intersect1_raw(&mut rh, None), Err(EmbreeError::NotCommitted));
+    let mut rh4 = sys::RTCRayHit4::default();
+    rh4.ray.tfar = [7.0; 4];
+    assert_eq!(scene.intersect4(&[-1; 4], &mut rh4, None), Err(EmbreeError::NotCommitted));
+    assert_eq!(rh4.ray.tfar, [7.0; 4]);
+    assert!(scene.intersect1(r).is_none() && !scene.occluded1(r));
+    scene.commit().unwrap();
+    assert!(scene.intersect1(r).is_some() && scene.occluded1(r));
+}
+
+/// One triangle (the unit triangle in z = 0) whose callbacks panic on request.
+struct Panicky {
+    in_bounds: bool,
+    in_intersect: bool,
+}
+
+impl UserPrimitives for Panicky {
+    fn count(&self) -> u32 {
+        1
+    }
+    fn bounds(&self, _prim: u32) -> Option<(Vec3, Vec3)> {
+        if self.in_bounds {
+            panic!("bounds exploded");
+        }
+        Some((Vec3::new(0.0, 0.0, -0.01), Vec3::new(1.0, 1.0, 0.01)))
+    }
+    fn intersect(&self, _prim: u32, org: Vec3, dir: Vec3, tnear: f32, tfar: f32) -> Option<PrimHit> {
+        if self.in_intersect {
+            panic!("intersect exploded");
+        }
+        let t = -org.z / dir.z;
+        let p = org + t * dir;
+        (t > tnear && t < tfar && p.x >= 0.0 && p.y >= 0.0 && p.x + p.y <= 1.0).then_some(PrimHit {
+            t,
+            u: p.x,
+            v: p.y,
+            ng: Vec3::Z,
+        })
+    }
+}
+
+fn panicky_scene(device: &Device, in_bounds: bool, in_intersect: bool) -> Scene {
+    let mut scene = Scene::new(device).unwrap();
+    scene.attach_user(Panicky { in_bounds, in_intersect }, UserGeometryOptions::default()).unwrap();
+    scene
+}
+
+fn panic_message(payload: Box<dyn std::any::Any + Send>) -> String {
+    payload
+        .downcast_ref::<&str>()
+        .map(|s| s.to_string())
+        .or_else(|| payload.downcast_ref::<String>().cloned())
+        .unwrap_or_default()
+}
+
+#[test]
+fn a_panic_in_intersect_is_resumed_in_the_caller() {
+    let device = Device::new().unwrap();
+    let mut scene = panicky_scene(&device, false, true);
+    scene.commit().unwrap();
+    let r = Ray::new(Vec3::new(0.2, 0.3, 1.0), -Vec3::Z);
+    let e =
+        catch_unwind(AssertUnwindSafe(|| scene.intersect1(r))).expect_err("intersect1 swallowed the panic");
+    assert_eq!(panic_message(e), "intersect exploded");
+    let e = catch_unwind(AssertUnwindSafe(|| scene.occluded1(r))).expect_err("occluded1 swallowed the panic");
+    assert_eq!(panic_message(e), "intersect exploded");
+    let mut rh = sys::RTCRayHit8::default();
+    for k in 0..8 {
+        (rh.ray.org_x[k], rh.ray.org_y[k], rh.ray.org_z[k]) = (0.2, 0.3, 1.0);
+        (rh.ray.dir_z[k], rh.ray.tfar[k], rh.ray.mask[k]) = (-1.0, f32::INFINITY, u32::MAX);
+    }
+    let e = catch_unwind(AssertUnwindSafe(|| scene.intersect8(&[-1; 8], &mut rh, None)))
+        .expect_err("intersect8 swallowed the panic");
+    assert_eq!(panic_message(e), "intersect exploded");
+    // Nothing is left pending on the thread: the next query on a sound scene hits.
+    let mut good = panicky_scene(&device, false, false);
+    good.commit().unwrap();
+    assert!(good.intersect1(r).is_some() && good.occluded1(r));
+}
+
+#[test]
+fn a_panic_in_intersect_under_the_callers_own_embree_call_is_reported_by_commit() {
+    let device = Device::new().unwrap();
+    let mut scene = panicky_scene(&device, false, true);
+    scene.commit().unwrap();
+    let mut rh = phongrt::embree::scene::new_rayhit(Ray::new(Vec3::new(0.2, 0.3, 1.0), -Vec3::Z));
+    // SAFETY (test): the scene is live and committed; `rh` is a valid RTCRayHit; NULL arguments
+    // select Embree's defaults.
+    unsafe { sys::rtcIntersect1(scene.raw(), &mut rh, std::ptr::null_mut()) };
+    // No Rust caller was waiting: the ray missed, and the panic is recorded for the geometry.
+    assert_eq!(rh.hit.geomID, u32::MAX);
+    let mut good = panicky_scene(&device, false, false);
+    good.commit().unwrap();
+    assert!(good.intersect1(Ray::new(Vec3::new(0.2, 0.3, 1.0), -Vec3::Z)).is_some());
+    let err = scene.commit().unwrap_err();
+    assert!(
+        matches!(&err, EmbreeError::CallbackPanicked { geom_id: 0, callback: "intersect", message }
+        if message == "intersect exploded"),
+        "{err}"
+    );
+}
+
+#[test]
+fn a_panic_in_bounds_makes_commit_fail() {
+    let device = Device::new().unwrap();
+    let mut scene = panicky_scene(&device, true, false);
+    let err = scene.commit().unwrap_err();
+    assert!(
+        matches!(&err, EmbreeError::CallbackPanicked { geom_id: 0, callback: "bounds", message }
+        if message == "bounds exploded"),
+        "{err}"
+    );
+    assert!(!scene.is_committed());
+    assert!(scene.intersect1(Ray::new(Vec3::new(0.2, 0.3, 1.0), -Vec3::Z)).is_none());
 }

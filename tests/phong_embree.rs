@@ -166,11 +166,11 @@ fn embree_path_matches_the_pure_rust_intersector() {
         let o = (rng.unit() * 3.0).as_vec3();
         let d = ((rng.unit() * 0.8).as_vec3() - o).normalize();
         let brute = pm
-            .patches
+            .patches()
             .iter()
             .enumerate()
             .filter_map(|(i, p)| {
-                intersect(p, V3::from(o), V3::from(d), 0.0, f32::INFINITY, pm.method).map(|h| (i as u32, h))
+                intersect(p, V3::from(o), V3::from(d), 0.0, f32::INFINITY, pm.method()).map(|h| (i as u32, h))
             })
             .min_by(|a, b| a.1.t.partial_cmp(&b.1.t).unwrap());
         let e = scene.intersect1(Ray::new(o, d));
@@ -202,7 +202,7 @@ fn phong_mesh_attaches_to_a_raw_scene_made_by_the_callers_own_embree_code() {
         sys::rtcCommitScene(raw);
         let mut rh = phongrt::embree::scene::new_rayhit(Ray::new(Vec3::new(0.0, 3.0, 0.0), -Vec3::Y));
         sys::rtcIntersect1(raw, &mut rh, std::ptr::null_mut());
-        assert_eq!(rh.hit.geomID, handle.geom_id);
+        assert_eq!(rh.hit.geomID, handle.geom_id());
         assert!((rh.ray.tfar - 2.0).abs() < 1e-5, "t = {}", rh.ray.tfar);
         let n = handle.mesh().shading_normal(rh.hit.primID, rh.hit.u, rh.hit.v, -Vec3::Y).unwrap();
         assert!(n.dot(Vec3::Y) > 0.999);

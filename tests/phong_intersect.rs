@@ -176,9 +176,9 @@ fn ray_parallel_to_a_flat_patch_misses() {
 fn degenerate_input_never_hits_nor_panics() {
     let n = [DVec3::Z; 3];
     let zero_area: Patch<f32> = Patch::new([DVec3::ZERO, DVec3::X, 2.0 * DVec3::X], n, 1.0);
-    assert!(zero_area.degenerate);
+    assert!(zero_area.degenerate());
     let zero_normal: Patch<f32> = Patch::new(P, [DVec3::Z, DVec3::ZERO, DVec3::Z], 1.0);
-    assert!(zero_normal.degenerate);
+    assert!(zero_normal.degenerate());
     let nan: Patch<f32> = Patch::new([d3(f64::NAN, 0.0, 0.0), DVec3::X, DVec3::Y], n, 1.0);
     let good: Patch<f32> = Patch::new(P, n, 1.0);
     for p in [&zero_area, &zero_normal, &nan] {
@@ -277,7 +277,7 @@ fn rays_leaving_a_hit_point_do_not_self_hit() {
         }
         // A ray leaving a convex-ish point may legitimately re-hit far away; only near hits count.
         if let Some(s) = intersect(&p, o, out, 0.0, f32::INFINITY, Method::AnalyticPolished) {
-            if s.t < 1e-3 * p.scale {
+            if s.t < 1e-3 * p.scale() {
                 self_hits += 1;
             }
         }
@@ -459,8 +459,9 @@ proptest! {
                 prop_assert!(x.x >= lo.x && x.y >= lo.y && x.z >= lo.z && x.x <= hi.x && x.y <= hi.y && x.z <= hi.z,
                     "point {x:?} at ({u}, {v}) outside {lo:?}..{hi:?}");
                 let xl = p.eval_local(u, v);
+                let (prism_n, prism_h) = p.prism();
                 for k in 0..5 {
-                    prop_assert!(p.prism_n[k].dot(xl) <= p.prism_h[k], "point at ({u}, {v}) outside prism plane {k}");
+                    prop_assert!(prism_n[k].dot(xl) <= prism_h[k], "point at ({u}, {v}) outside prism plane {k}");
                 }
             }
         }
@@ -514,4 +515,57 @@ fn certified_agrees_with_analytic() {
         analytic_only + certified_only <= n / 1000,
         "{analytic_only} + {certified_only} disagreements in {n}"
     );
+}
+
+/// A small bulging patch far from the origin (positions, normals).
+fn far_patch() -> ([DVec3; 3], [DVec3; 3]) {
+    let c = d3(12345.678, -23456.789, 3456.789);
+    let p = [c, c + d3(0.01, 0.0, 0.0), c + d3(0.0, 0.01, 0.002)];
+    let n = [d3(-0.3, -0.3, 1.0), d3(0.4, -0.2, 1.0), d3(-0.2, 0.4, 1.0)];
+    (p, n)
+}
+
+/// The worst relative t error of `p32` against the f64 patch of [`far_patch`] on rays aimed at
+/// a grid of its points (ray origins and directions exact in f32, so both see the same ray).
+fn far_patch_t_error(p32: &Patch<f32>) -> f64 {
+    let (p, n) = far_patch();
+    let p64: Patch<f64> = Patch::new(p, n, 1.0);
+    let mut worst = 0.0f64;
+    for i in 1..8 {
+        for j in 1..(8 - i) {
+            let (u, v) = (i as f64 / 8.0, j as f64 / 8.0);
+            let target: DVec3 = p64.eval(u, v).into();
+            let org = (target + d3(0.001, 0.002, 0.05)).as_vec3().as_dvec3();
+            let dir = (target - org).normalize().as_vec3().as_dvec3();
+            let h64 =
+                intersect(&p64, V3::from(org), V3::from(dir), 0.0, f64::INFINITY, Method::AnalyticPolished)
+                    .expect("f64 hit");
+            let h32 = hit32(p32, org, dir).expect("f32 hit");
+            worst = worst.max((h32.t as f64 - h64.t).abs() / h64.t);
+        }
+    }
+    worst
+}
+
+#[test]
+fn a_patch_cast_from_f64_to_f32_is_as_accurate_as_one_built_in_f32() {
+    // Rounding only the fields would leave the coefficients relative to a centre the f32 patch
+    // does not have: a t error of the centre's rounding (1e-3 at 1e4) over the patch size.
+    let (p, n) = far_patch();
+    let built = far_patch_t_error(&Patch::<f32>::new(p, n, 1.0));
+    let cast = far_patch_t_error(&Patch::<f64>::new(p, n, 1.0).cast::<f32>());
+    eprintln!("relative t error: built in f32 {built:.2e}, cast from f64 {cast:.2e}");
+    assert!(built < 1e-5, "built in f32: {built:e}");
+    assert!(cast < 1e-5 && cast <= 2.0 * built + 1e-7, "cast from f64: {cast:e} (built in f32: {built:e})");
+}
+
+#[test]
+fn a_patch_cast_from_f32_to_f64_is_exact() {
+    let (p, n) = far_patch();
+    let p32: Patch<f32> = Patch::new(p, n, 1.0);
+    let p64 = p32.cast::<f64>();
+    assert_eq!(p64.center(), p32.center().to_f64());
+    assert_eq!(p64.coefficients(), p32.coefficients().map(|k| k.to_f64()));
+    assert_eq!(p64.local_bounds(), (p32.local_bounds().0.to_f64(), p32.local_bounds().1.to_f64()));
+    assert_eq!(p64.prism().1, p32.prism().1.map(|h| h as f64));
 }

@@ -8,7 +8,7 @@ use glam::Vec3;
 
 use super::phong_geometry::PhongMesh;
 use super::sys;
-use super::user_geometry::{new_user_geometry, UserGeometryOptions};
+use super::user_geometry::{new_user_geometry, UserData, UserGeometryOptions};
 use crate::phong::ShadingNormal;
 
 thread_local! {
@@ -17,20 +17,22 @@ thread_local! {
 
 fn set_error(msg: &str) {
     let c = CString::new(msg.replace('\0', " ")).unwrap_or_default();
-    LAST_ERROR.with(|e| *e.borrow_mut() = c);
+    // `try_with` and `try_borrow_mut`: this runs outside `catch_unwind` too, so it must not panic
+    // (a thread-local being torn down, a re-entrant call) on its way back to C.
+    let _ = LAST_ERROR.try_with(|e| e.try_borrow_mut().map(|mut slot| *slot = c));
 }
 
 /// Opaque to C: the mesh data a Phong user geometry points into.
 #[allow(non_camel_case_types)]
 pub struct phongrt_mesh {
-    mesh: PhongMesh,
+    data: UserData<PhongMesh>,
 }
 
 /// # Safety
-/// `p` must be NULL or point to `n` readable floats... checked by the caller for NULL.
+/// `p` must be non-NULL and point to `n` readable float triples.
 unsafe fn read_vec3s(p: *const f32, n: usize) -> Vec<Vec3> {
-    // SAFETY: the caller passes `n` float triples (phongrt.h contract); we checked for NULL.
-    let s = std::slice::from_raw_parts(p, n * 3);
+    // SAFETY: this function's contract (the caller checked for NULL; phongrt.h gives the count).
+    let s = unsafe { std::slice::from_raw_parts(p, n * 3) };
     s.chunks_exact(3).map(|c| Vec3::new(c[0], c[1], c[2])).collect()
 }
 
@@ -70,13 +72,13 @@ pub unsafe extern "C" fn phongrt_attach_mesh(
             (p, n, idx)
         };
         let mesh = PhongMesh::new(p, n, idx, alpha).map_err(|e| format!("phongrt_attach_mesh: {e}"))?;
-        let boxed = Box::new(phongrt_mesh { mesh });
+        let boxed = Box::new(phongrt_mesh { data: UserData::new(mesh) });
         // SAFETY: `scene` is live (contract), so its device is; the mesh box is leaked to the
         // caller, who frees it with phongrt_mesh_release only after releasing the scene
         // (phongrt.h), so the geometry's user pointer stays valid while it can be traced.
         unsafe {
             let device = sys::rtcGetSceneDevice(scene);
-            let ptr: *const PhongMesh = &boxed.mesh;
+            let ptr: *const UserData<PhongMesh> = &boxed.data;
             let geom = new_user_geometry(device, ptr, UserGeometryOptions::default());
             // rtcGetSceneDevice retained the device: release that reference.
             if geom.is_null() {
@@ -88,7 +90,11 @@ pub unsafe extern "C" fn phongrt_attach_mesh(
             let err = sys::rtcGetDeviceError(device);
             sys::rtcReleaseDevice(device);
             if err != sys::RTCError::RTC_ERROR_NONE {
-                return Err(format!("phongrt_attach_mesh: Embree: {}", super::device::error_kind(err)));
+                let code = super::device::ErrorCode::from_raw(err);
+                return Err(format!(
+                    "phongrt_attach_mesh: Embree: {}",
+                    code.unwrap_or(super::ErrorCode::Unknown)
+                ));
             }
             if !mesh_out.is_null() {
                 *mesh_out = Box::into_raw(boxed);
@@ -174,7 +180,7 @@ pub unsafe extern "C" fn phongrt_shading_normal_rule(
     };
     let r = catch_unwind(AssertUnwindSafe(|| {
         // SAFETY: pointers are valid per the contract (checked non-NULL above).
-        let (m, d) = unsafe { (&(*mesh).mesh, read_vec3s(ray_dir, 1)[0]) };
+        let (m, d) = unsafe { (&(*mesh).data.prims, read_vec3s(ray_dir, 1)[0]) };
         m.shading_normal_with(prim_id, u, v, d, rule)
     }));
     match r {
@@ -207,7 +213,7 @@ pub unsafe extern "C" fn phongrt_surface_point(
         return -1;
     }
     // SAFETY: `mesh` is live (contract).
-    let r = catch_unwind(AssertUnwindSafe(|| unsafe { &(*mesh).mesh }.surface_point(prim_id, u, v)));
+    let r = catch_unwind(AssertUnwindSafe(|| unsafe { &(*mesh).data.prims }.surface_point(prim_id, u, v)));
     match r {
         Ok(Some((p, _err))) => {
             // SAFETY: point_out has 3 writable floats (contract).
@@ -225,5 +231,8 @@ pub unsafe extern "C" fn phongrt_surface_point(
 #[no_mangle]
 pub extern "C" fn phongrt_last_error() -> *const c_char {
     // The CString lives in this thread's slot until the next phongrt call on this thread.
-    LAST_ERROR.with(|e| e.borrow().as_ptr())
+    // Must not panic on its way back to C: a slot being torn down reads as "".
+    LAST_ERROR
+        .try_with(|e| e.try_borrow().map(|slot| slot.as_ptr()).unwrap_or(c"".as_ptr()))
+        .unwrap_or(c"".as_ptr())
 }

@@ -6,32 +6,129 @@ use std::sync::{Arc, Mutex};
 
 use super::sys;
 
-/// An error reported by Embree (through the device's error callback) or by this wrapper.
-#[derive(Debug, Clone, thiserror::Error)]
+/// An Embree error code (`RTCError`), as a matchable value.
+#[derive(Clone, Copy, Debug, PartialEq, Eq, Hash)]
+pub enum ErrorCode {
+    /// `RTC_ERROR_UNKNOWN`.
+    Unknown,
+    /// `RTC_ERROR_INVALID_ARGUMENT`.
+    InvalidArgument,
+    /// `RTC_ERROR_INVALID_OPERATION`.
+    InvalidOperation,
+    /// `RTC_ERROR_OUT_OF_MEMORY`.
+    OutOfMemory,
+    /// `RTC_ERROR_UNSUPPORTED_CPU`.
+    UnsupportedCpu,
+    /// `RTC_ERROR_CANCELLED` (a memory monitor or progress callback said stop).
+    Cancelled,
+    /// `RTC_ERROR_LEVEL_ZERO_RAYTRACING_SUPPORT_MISSING`.
+    LevelZeroRaytracingSupportMissing,
+    /// A code these bindings do not know (a newer Embree), with its value.
+    Other(u32),
+}
+
+impl ErrorCode {
+    /// The code of an `RTCError`; `None` for `RTC_ERROR_NONE`.
+    pub fn from_raw(code: sys::RTCError) -> Option<Self> {
+        use sys::RTCError as E;
+        Some(match code {
+            E::RTC_ERROR_NONE => return None,
+            E::RTC_ERROR_UNKNOWN => ErrorCode::Unknown,
+            E::RTC_ERROR_INVALID_ARGUMENT => ErrorCode::InvalidArgument,
+            E::RTC_ERROR_INVALID_OPERATION => ErrorCode::InvalidOperation,
+            E::RTC_ERROR_OUT_OF_MEMORY => ErrorCode::OutOfMemory,
+            E::RTC_ERROR_UNSUPPORTED_CPU => ErrorCode::UnsupportedCpu,
+            E::RTC_ERROR_CANCELLED => ErrorCode::Cancelled,
+            E::RTC_ERROR_LEVEL_ZERO_RAYTRACING_SUPPORT_MISSING => {
+                ErrorCode::LevelZeroRaytracingSupportMissing
+            }
+            other => ErrorCode::Other(other.0),
+        })
+    }
+}
+
+impl std::fmt::Display for ErrorCode {
+    fn fmt(&self, f: &mut std::fmt::Formatter<'_>) -> std::fmt::Result {
+        match self {
+            ErrorCode::Unknown => f.write_str("unknown error"),
+            ErrorCode::InvalidArgument => f.write_str("invalid argument"),
+            ErrorCode::InvalidOperation => f.write_str("invalid operation"),
+            ErrorCode::OutOfMemory => f.write_str("out of memory"),
+            ErrorCode::UnsupportedCpu => f.write_str("unsupported CPU"),
+            ErrorCode::Cancelled => f.write_str("cancelled"),
+            ErrorCode::LevelZeroRaytracingSupportMissing => {
+                f.write_str("Level Zero ray tracing support missing")
+            }
+            ErrorCode::Other(c) => write!(f, "error code {c}"),
+        }
+    }
+}
+
+/// An error reported by Embree (through the device's error callback), or a refusal by this
+/// wrapper of something Embree would silently misuse. One type for the whole Embree layer.
+#[derive(Debug, Clone, PartialEq, thiserror::Error)]
 pub enum EmbreeError {
-    /// Embree reported an error code with a message.
-    #[error("Embree: {kind}: {message}")]
-    Device { kind: &'static str, message: String },
+    /// Embree reported an error code, with its message (empty if Embree gave none).
+    #[error("Embree: {code}{}{message}", if message.is_empty() { "" } else { ": " })]
+    Device {
+        /// The `RTCError` code.
+        code: ErrorCode,
+        /// Embree's message, or what we were doing.
+        message: String,
+    },
     /// The device config string contains a NUL byte.
     #[error("Embree device config {0:?} contains a NUL byte")]
     Config(String),
     /// A null handle came back without an error code.
     #[error("Embree returned no {0} and reported no error")]
     Null(&'static str),
-    /// Input that Embree would silently misuse.
-    #[error("{0}")]
-    Invalid(String),
+    /// A vertex index of a mesh is not below the vertex count.
+    #[error("{what} index {index} out of range for {vertices} vertices")]
+    IndexOutOfRange {
+        /// The kind of mesh ("triangle", "subdivision").
+        what: &'static str,
+        /// The offending index.
+        index: u32,
+        /// The number of vertices.
+        vertices: usize,
+    },
+    /// A subdivision tessellation rate that is not a finite number >= 1.
+    #[error("tessellation rate {0} is not >= 1")]
+    TessellationRate(f32),
+    /// Tracing or instancing a scene that is not committed.
+    #[error("the scene is not committed (commit it before tracing or instancing it)")]
+    NotCommitted,
+    /// Changing or committing a scene that another scene instances (and may be tracing).
+    #[error("a scene that is instanced elsewhere cannot be changed or recommitted")]
+    InstancedElsewhere,
+    /// A user-geometry callback panicked where no Rust caller could resume the panic: the
+    /// bounds callback on one of Embree's build threads (reported by the commit that ran it,
+    /// which leaves the scene uncommitted), or a query callback under the caller's own
+    /// `rtcIntersect*` (reported by the next commit).
+    #[error("user geometry {geom_id}: the {callback} callback panicked: {message}")]
+    CallbackPanicked {
+        /// The geomID of the geometry whose callback panicked.
+        geom_id: u32,
+        /// Which callback: "bounds", "intersect" or "occluded".
+        callback: &'static str,
+        /// The panic message (if it was a string).
+        message: String,
+    },
 }
 
-pub(crate) fn error_kind(code: sys::RTCError) -> &'static str {
-    match code {
-        sys::RTCError::RTC_ERROR_NONE => "no error",
-        sys::RTCError::RTC_ERROR_INVALID_ARGUMENT => "invalid argument",
-        sys::RTCError::RTC_ERROR_INVALID_OPERATION => "invalid operation",
-        sys::RTCError::RTC_ERROR_OUT_OF_MEMORY => "out of memory",
-        sys::RTCError::RTC_ERROR_UNSUPPORTED_CPU => "unsupported CPU",
-        sys::RTCError::RTC_ERROR_CANCELLED => "cancelled",
-        _ => "unknown error",
+impl EmbreeError {
+    /// The Embree error code, if this error came from Embree.
+    pub fn code(&self) -> Option<ErrorCode> {
+        match self {
+            EmbreeError::Device { code, .. } => Some(*code),
+            _ => None,
+        }
+    }
+
+    /// An error from a raw Embree code (`Unknown` for `RTC_ERROR_NONE`, which callers only pass
+    /// when a call failed anyway).
+    pub(crate) fn from_code(code: sys::RTCError, message: String) -> Self {
+        EmbreeError::Device { code: ErrorCode::from_raw(code).unwrap_or(ErrorCode::Unknown), message }
     }
 }
 
@@ -118,10 +215,7 @@ impl Device {
             // SAFETY: rtcGetDeviceError accepts NULL and then returns the thread-local error of
             // the failed device creation (rtcGetDeviceError docs).
             let code = unsafe { sys::rtcGetDeviceError(std::ptr::null_mut()) };
-            return Err(EmbreeError::Device {
-                kind: error_kind(code),
-                message: format!("cannot create device with config {config:?}"),
-            });
+            return Err(EmbreeError::from_code(code, format!("cannot create device with config {config:?}")));
         }
         let state = Box::<DeviceState>::default();
         let user = &*state as *const DeviceState as *mut c_void;
@@ -147,7 +241,7 @@ impl Device {
             return Ok(());
         }
         let (code, message) = stored.unwrap_or((code, String::new()));
-        Err(EmbreeError::Device { kind: error_kind(code), message })
+        Err(EmbreeError::from_code(code, message))
     }
 
     fn property(&self, p: sys::RTCDeviceProperty) -> isize {

@@ -4,8 +4,13 @@ pub mod device;
 pub mod scene;
 pub mod sys;
 
-pub use device::{header_version, set_flush_denormals, Device, EmbreeError, MAX_INSTANCE_LEVEL_COUNT};
-pub use scene::{new_query_context, GeometryOptions, Hit, Ray, Scene};
+pub use device::{
+    header_version, set_flush_denormals, Device, EmbreeError, ErrorCode, MAX_INSTANCE_LEVEL_COUNT,
+};
+pub use scene::{
+    new_query_context, GeometryOptions, Hit, IntersectArgs, OccludedArgs, QueryContext, Ray, Scene,
+};
+mod panic;
 pub mod user_geometry;
 pub use user_geometry::{PrimHit, UserGeometryOptions, UserPrimitives, UserTriangles};
 pub mod capi;

@@ -7,7 +7,7 @@ use glam::{DVec3, Vec3};
 use super::device::EmbreeError;
 use super::scene::Scene;
 use super::sys;
-use super::user_geometry::{new_user_geometry, PrimHit, UserGeometryOptions, UserPrimitives};
+use super::user_geometry::{new_user_geometry, PrimHit, UserData, UserGeometryOptions, UserPrimitives};
 use crate::phong::{intersect, Method, Patch, ShadingNormal, V3};
 
 /// Why a Phong mesh was refused.
@@ -26,14 +26,17 @@ pub enum PhongMeshError {
 }
 
 /// A Phong mesh: patches precomputed per triangle, owned so it outlives the geometry.
+///
+/// The fields are private so that the patches and their precomputed bounds cannot drift
+/// apart: build a new mesh to change the geometry.
 #[derive(Clone, Debug)]
 pub struct PhongMesh {
-    pub patches: Vec<Patch<f32>>,
+    patches: Vec<Patch<f32>>,
     /// World-space bounds per patch (precomputed: the bounds callback only copies).
     bounds: Vec<(Vec3, Vec3)>,
     /// Patches that are never hit (zero area or zero normal), counted for reporting.
-    pub degenerate: usize,
-    pub method: Method,
+    degenerate: usize,
+    method: Method,
 }
 
 impl PhongMesh {
@@ -92,8 +95,33 @@ impl PhongMesh {
                 (patch, (Vec3::from(lo), Vec3::from(hi)))
             })
             .unzip();
-        let degenerate = patches.iter().filter(|p| p.degenerate).count();
+        let degenerate = patches.iter().filter(|p| p.degenerate()).count();
         Ok(PhongMesh { patches, bounds, degenerate, method: Method::Certified })
+    }
+
+    /// The patches, one per triangle (primID order).
+    pub fn patches(&self) -> &[Patch<f32>] {
+        &self.patches
+    }
+
+    /// The world-space bounds the bounds callback reports for patch `prim` (`None` past the end).
+    pub fn patch_bounds(&self, prim: u32) -> Option<(Vec3, Vec3)> {
+        self.bounds.get(prim as usize).copied()
+    }
+
+    /// How many patches are never hit (zero area or zero normal).
+    pub fn degenerate(&self) -> usize {
+        self.degenerate
+    }
+
+    /// The intersection method the ray callbacks use ([`Method::Certified`] unless set).
+    pub fn method(&self) -> Method {
+        self.method
+    }
+
+    /// Use `method` for the ray callbacks.
+    pub fn set_method(&mut self, method: Method) {
+        self.method = method;
     }
 
     /// The true surface point at `(u, v)` of patch `prim`, with a bound on its rounding error.
@@ -158,7 +186,7 @@ impl UserPrimitives for PhongMesh {
 
     fn bounds(&self, prim: u32) -> Option<(Vec3, Vec3)> {
         let p = self.patches.get(prim as usize)?;
-        if p.degenerate {
+        if p.degenerate() {
             return None; // excluded from the BVH (and counted in `degenerate`)
         }
         self.bounds.get(prim as usize).copied()
@@ -188,14 +216,26 @@ impl Scene {
 /// A Phong mesh attached to a raw `RTCScene` the caller manages: keep this handle alive until
 /// every scene holding the geometry is released, then drop it.
 pub struct RawPhongGeometry {
-    mesh: Box<PhongMesh>,
-    pub geom_id: u32,
+    data: Box<UserData<PhongMesh>>,
+    geom_id: u32,
 }
 
 impl RawPhongGeometry {
     /// The mesh (for shading helpers).
     pub fn mesh(&self) -> &PhongMesh {
-        &self.mesh
+        &self.data.prims
+    }
+
+    /// The geomID in the caller's scene.
+    pub fn geom_id(&self) -> u32 {
+        self.geom_id
+    }
+
+    /// How many times a ray callback of this geometry panicked under the caller's own
+    /// `rtcIntersect*`/`rtcOccluded*` (there is no Rust caller to resume the panic in: the ray
+    /// saw a miss instead), or a bounds callback under the caller's `rtcCommitScene`.
+    pub fn callback_panics(&self) -> u64 {
+        self.data.recorded_panics()
     }
 }
 
@@ -209,13 +249,14 @@ pub unsafe fn attach_phong_raw(
     mesh: PhongMesh,
     options: UserGeometryOptions,
 ) -> Result<RawPhongGeometry, EmbreeError> {
-    let mesh = Box::new(mesh);
+    let data = Box::new(UserData::new(mesh));
     // SAFETY: the caller guarantees `scene` is live; rtcGetSceneDevice returns its device with
-    // a new reference, released below. The mesh box lives in the returned handle, which the
-    // caller keeps alive while the scene is traced (this function's contract).
+    // a new reference, released below (rtcGetSceneDevice docs). The data box lives in the
+    // returned handle, which the caller keeps alive while the scene is traced (this function's
+    // contract), so the geometry's user pointer stays valid.
     unsafe {
         let device = sys::rtcGetSceneDevice(scene);
-        let geom = new_user_geometry(device, &*mesh as *const PhongMesh, options);
+        let geom = new_user_geometry(device, &*data as *const UserData<PhongMesh>, options);
         if geom.is_null() {
             sys::rtcReleaseDevice(device);
             return Err(EmbreeError::Null("user geometry"));
@@ -225,12 +266,9 @@ pub unsafe fn attach_phong_raw(
         let err = sys::rtcGetDeviceError(device);
         sys::rtcReleaseDevice(device);
         if err != sys::RTCError::RTC_ERROR_NONE {
-            return Err(EmbreeError::Device {
-                kind: super::device::error_kind(err),
-                message: "attaching a Phong mesh".into(),
-            });
+            return Err(EmbreeError::from_code(err, "attaching a Phong mesh".into()));
         }
-        Ok(RawPhongGeometry { mesh, geom_id })
+        Ok(RawPhongGeometry { data, geom_id })
     }
 }
 

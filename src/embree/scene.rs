@@ -1,11 +1,13 @@
 //! Scenes, triangle geometry, instances, and ray queries (single rays and 4/8/16 packets).
 
 use std::any::Any;
+use std::marker::PhantomData;
 use std::sync::Arc;
 
 use glam::{Mat4, Vec3};
 
 use super::device::{Device, EmbreeError, MAX_INSTANCE_LEVEL_COUNT};
+use super::panic::{self, PanicRecord};
 use super::sys;
 
 /// A ray with its valid interval `(tnear, tfar)`; `mask` is tested against geometry masks.
@@ -99,7 +101,7 @@ pub(crate) fn hit_of(rh: &sys::RTCRayHit) -> Option<Hit> {
     })
 }
 
-/// A ray query context with an empty instance stack (`rtcInitRayQueryContext` is an inline
+/// A raw ray query context with an empty instance stack (`rtcInitRayQueryContext` is an inline
 /// function of the header, so it is rewritten here).
 pub fn new_query_context() -> sys::RTCRayQueryContext {
     sys::RTCRayQueryContext {
@@ -108,12 +110,126 @@ pub fn new_query_context() -> sys::RTCRayQueryContext {
     }
 }
 
+/// A ray query context (`RTCRayQueryContext`) that can only hold what `rtcInitRayQueryContext`
+/// puts there, an empty instance stack, and what Embree itself pushes during a query. Filter
+/// functions see it as the `context` of their arguments.
+#[derive(Debug)]
+#[repr(transparent)]
+pub struct QueryContext(sys::RTCRayQueryContext);
+
+impl QueryContext {
+    /// A context with an empty instance stack.
+    pub fn new() -> Self {
+        QueryContext(new_query_context())
+    }
+
+    /// The raw context (read only).
+    pub fn as_raw(&self) -> &sys::RTCRayQueryContext {
+        &self.0
+    }
+}
+
+impl Default for QueryContext {
+    fn default() -> Self {
+        Self::new()
+    }
+}
+
+macro_rules! query_args {
+    ($(#[$doc:meta])* $name:ident, $raw:ident, $callback:ident) => {
+        $(#[$doc])*
+        ///
+        /// Everything Embree dereferences in it is valid by construction: the context is borrowed
+        /// for `'a`, and a filter can only be set through an `unsafe` method whose caller vouches
+        /// for it. The feature mask stays `RTC_FEATURE_FLAG_ALL` and the user-geometry callback
+        /// in the arguments stays NULL.
+        pub struct $name<'a> {
+            raw: sys::$raw,
+            _context: PhantomData<&'a mut QueryContext>,
+        }
+
+        impl<'a> $name<'a> {
+            /// Embree's defaults (as the header's inline initialiser sets them): incoherent
+            /// rays, all features, no context, no filter.
+            pub fn new() -> Self {
+                $name {
+                    raw: sys::$raw {
+                        flags: sys::RTCRayQueryFlags::RTC_RAY_QUERY_FLAG_INCOHERENT,
+                        feature_mask: sys::RTCFeatureFlags::RTC_FEATURE_FLAG_ALL,
+                        context: std::ptr::null_mut(),
+                        filter: None,
+                        $callback: None,
+                    },
+                    _context: PhantomData,
+                }
+            }
+
+            /// The query flags (coherent or incoherent rays, whether to invoke the argument
+            /// filter).
+            pub fn flags(mut self, flags: sys::RTCRayQueryFlags) -> Self {
+                self.raw.flags = flags;
+                self
+            }
+
+            /// The query context Embree passes to filters, borrowed for the query.
+            pub fn context(mut self, context: &'a mut QueryContext) -> Self {
+                self.raw.context = &mut context.0;
+                self
+            }
+
+            /// A filter function for candidate hits, invoked when the flags include
+            /// `RTC_RAY_QUERY_FLAG_INVOKE_ARGUMENT_FILTER` (or a geometry enables argument
+            /// filters).
+            ///
+            /// # Safety
+            /// Embree calls `filter` with `RTCFilterFunctionNArguments` describing `N` lanes
+            /// (`valid` has `N` ints, `ray`/`hit` are an `RTCRayN`/`RTCHitN` of width `N`,
+            /// `context` is this query's context); it must access nothing beyond those, may
+            /// only clear `valid` lanes and update the hit as Embree's filter contract allows
+            /// (rtcSetGeometryIntersectFilterFunction docs), and must not unwind.
+            pub unsafe fn filter(
+                mut self,
+                filter: unsafe extern "C" fn(args: *const sys::RTCFilterFunctionNArguments),
+            ) -> Self {
+                self.raw.filter = Some(filter);
+                self
+            }
+
+            /// The raw arguments (read only).
+            pub fn as_raw(&self) -> &sys::$raw {
+                &self.raw
+            }
+        }
+
+        impl Default for $name<'_> {
+            fn default() -> Self {
+                Self::new()
+            }
+        }
+    };
+}
+
+query_args!(
+    /// Arguments of an intersect query (`RTCIntersectArguments`).
+    IntersectArgs,
+    RTCIntersectArguments,
+    intersect
+);
+query_args!(
+    /// Arguments of an occlusion query (`RTCOccludedArguments`).
+    OccludedArgs,
+    RTCOccludedArguments,
+    occluded
+);
+
 struct SceneHandle {
     raw: sys::RTCScene,
     device: Device,
     /// Data that Embree geometry points into (user-geometry data, instanced child scenes):
     /// dropped only after the scene is released.
     keep_alive: Vec<Box<dyn Any + Send + Sync>>,
+    /// The panic record of each user geometry (geomID, record), read by `commit`.
+    panics: Vec<(u32, Arc<PanicRecord>)>,
 }
 
 // SAFETY: Embree scenes may be queried from any number of threads at once after commit
@@ -240,7 +356,12 @@ impl Scene {
             return Err(EmbreeError::Null("scene"));
         }
         Ok(Scene {
-            inner: Arc::new(SceneHandle { raw, device: device.clone(), keep_alive: Vec::new() }),
+            inner: Arc::new(SceneHandle {
+                raw,
+                device: device.clone(),
+                keep_alive: Vec::new(),
+                panics: Vec::new(),
+            }),
             committed: false,
         })
     }
@@ -278,11 +399,19 @@ impl Scene {
         self.inner.raw
     }
 
+    /// The handle, for a change that needs a new commit: refused (and the scene left as it
+    /// is, committed or not) while another scene instances this one, since Embree may be
+    /// tracing it through that scene.
     fn handle_mut(&mut self) -> Result<&mut SceneHandle, EmbreeError> {
+        let handle = Arc::get_mut(&mut self.inner).ok_or(EmbreeError::InstancedElsewhere)?;
         self.committed = false;
-        Arc::get_mut(&mut self.inner).ok_or_else(|| {
-            EmbreeError::Invalid("a scene that is instanced elsewhere cannot be changed".into())
-        })
+        Ok(handle)
+    }
+
+    /// Record the panic record of user geometry `geom_id`, for `commit` to report.
+    pub(crate) fn watch_panics(&mut self, geom_id: u32, record: Arc<PanicRecord>) -> Result<(), EmbreeError> {
+        self.handle_mut()?.panics.push((geom_id, record));
+        Ok(())
     }
 
     /// Keep `data` alive as long as the scene (for geometry that points into it).
@@ -310,11 +439,8 @@ impl Scene {
         indices: &[[u32; 3]],
         options: GeometryOptions,
     ) -> Result<u32, EmbreeError> {
-        if let Some(bad) = indices.iter().flatten().find(|&&i| i as usize >= positions.len()) {
-            return Err(EmbreeError::Invalid(format!(
-                "triangle index {bad} out of range for {} vertices",
-                positions.len()
-            )));
+        if let Some(&index) = indices.iter().flatten().find(|&&i| i as usize >= positions.len()) {
+            return Err(EmbreeError::IndexOutOfRange { what: "triangle", index, vertices: positions.len() });
         }
         let device = self.device().clone();
         let vbuf = new_buffer_from(&device, positions)?;
@@ -361,14 +487,15 @@ impl Scene {
         indices: &[[u32; 3]],
         tessellation_rate: f32,
     ) -> Result<u32, EmbreeError> {
-        if let Some(bad) = indices.iter().flatten().find(|&&i| i as usize >= positions.len()) {
-            return Err(EmbreeError::Invalid(format!(
-                "subdivision index {bad} out of range for {} vertices",
-                positions.len()
-            )));
+        if let Some(&index) = indices.iter().flatten().find(|&&i| i as usize >= positions.len()) {
+            return Err(EmbreeError::IndexOutOfRange {
+                what: "subdivision",
+                index,
+                vertices: positions.len(),
+            });
         }
         if !(tessellation_rate.is_finite() && tessellation_rate >= 1.0) {
-            return Err(EmbreeError::Invalid(format!("tessellation rate {tessellation_rate} is not >= 1")));
+            return Err(EmbreeError::TessellationRate(tessellation_rate));
         }
         let device = self.device().clone();
         let vbuf = new_buffer_from(&device, positions)?;
@@ -424,7 +551,7 @@ impl Scene {
     /// world); returns its geomID (the instID hits inside it report).
     pub fn attach_instance(&mut self, child: &Scene, transform: Mat4, mask: u32) -> Result<u32, EmbreeError> {
         if !child.committed {
-            return Err(EmbreeError::Invalid("an instanced scene must be committed first".into()));
+            return Err(EmbreeError::NotCommitted);
         }
         let device = self.device().clone();
         let cols = transform.to_cols_array();
@@ -450,10 +577,24 @@ impl Scene {
     }
 
     /// Build the BVH. Queries need a committed scene.
+    ///
+    /// Refused while another scene instances this one ([`EmbreeError::InstancedElsewhere`]);
+    /// a panic in a user geometry's bounds callback (run on Embree's build threads) comes back
+    /// as [`EmbreeError::CallbackPanicked`], and the scene stays uncommitted.
     pub fn commit(&mut self) -> Result<(), EmbreeError> {
-        // SAFETY: the scene is live and not being traced (we hold `&mut self`).
-        unsafe { sys::rtcCommitScene(self.inner.raw) };
+        let raw = self.handle_mut()?.raw;
+        // SAFETY: the scene is live, and no other thread can be tracing it: we hold `&mut self`
+        // and the only reference to the handle (no scene instances it), and rtcCommitScene
+        // must not run concurrently with queries on the scene (rtcCommitScene docs).
+        unsafe { sys::rtcCommitScene(raw) };
         self.device().check()?;
+        // Any panic recorded since the last commit: this commit's bounds callbacks, or ray
+        // callbacks under the caller's own Embree calls (taking it clears it).
+        for (geom_id, record) in &self.inner.panics {
+            if let Some((callback, message)) = record.take() {
+                return Err(EmbreeError::CallbackPanicked { geom_id: *geom_id, callback, message });
+            }
+        }
         self.committed = true;
         Ok(())
     }
@@ -471,48 +612,57 @@ impl Scene {
         (Vec3::new(b.lower_x, b.lower_y, b.lower_z), Vec3::new(b.upper_x, b.upper_y, b.upper_z))
     }
 
-    fn assert_committed(&self) {
-        // Tracing an uncommitted scene is an Embree error that would otherwise be silent.
-        debug_assert!(self.committed, "trace on an uncommitted scene");
-    }
-
-    /// The nearest hit along `ray` in `(tnear, tfar)`.
+    /// The nearest hit along `ray` in `(tnear, tfar)`; `None` on an uncommitted scene.
+    ///
+    /// A panic in a user geometry's callback during the query is resumed here.
     pub fn intersect1(&self, ray: Ray) -> Option<Hit> {
-        if !self.committed {
-            return None;
-        }
         let mut rh = empty_rayhit(ray);
-        self.intersect1_raw(&mut rh, None);
+        self.intersect1_raw(&mut rh, None).ok()?;
         hit_of(&rh)
     }
 
-    /// Whether anything blocks `ray` in `(tnear, tfar)`.
+    /// Whether anything blocks `ray` in `(tnear, tfar)`; `false` on an uncommitted scene.
+    ///
+    /// A panic in a user geometry's callback during the query is resumed here.
     pub fn occluded1(&self, ray: Ray) -> bool {
-        if !self.committed {
-            return false;
-        }
         let mut r = ray.to_sys();
-        // SAFETY: the scene is committed and live; `r` is a valid RTCRay; NULL arguments select
-        // Embree's defaults (rtcOccluded1 docs).
-        unsafe { sys::rtcOccluded1(self.inner.raw, &mut r, std::ptr::null_mut()) };
-        r.tfar == f32::NEG_INFINITY
+        self.occluded1_raw(&mut r, None).is_ok() && r.tfar == f32::NEG_INFINITY
     }
 
     /// `rtcIntersect1` on a raw ray-hit with optional arguments (context, filter, flags).
-    pub fn intersect1_raw(&self, rayhit: &mut sys::RTCRayHit, args: Option<&mut sys::RTCIntersectArguments>) {
-        self.assert_committed();
-        let args = args.map_or(std::ptr::null_mut(), |a| a as *mut _);
-        // SAFETY: the scene is live and committed; `rayhit` is a valid exclusive RTCRayHit;
-        // `args` is NULL or a valid RTCIntersectArguments whose context (if any) outlives the call.
-        unsafe { sys::rtcIntersect1(self.inner.raw, rayhit, args) };
+    /// Refused on an uncommitted scene ([`EmbreeError::NotCommitted`], `rayhit` untouched);
+    /// a panic in a user geometry's callback during the query is resumed here.
+    pub fn intersect1_raw(
+        &self,
+        rayhit: &mut sys::RTCRayHit,
+        args: Option<&mut IntersectArgs<'_>>,
+    ) -> Result<(), EmbreeError> {
+        if !self.committed {
+            return Err(EmbreeError::NotCommitted);
+        }
+        let args = args.map_or(std::ptr::null_mut(), |a| &mut a.raw as *mut _);
+        // SAFETY: the scene is live and committed, and only `&mut self` can change it; `rayhit`
+        // is an exclusive RTCRayHit (plain data); `args` is NULL (Embree's defaults) or
+        // arguments whose context is borrowed for the call and whose filter the caller of
+        // `IntersectArgs::filter` vouched for (rtcIntersect1 docs).
+        panic::query(|| unsafe { sys::rtcIntersect1(self.inner.raw, rayhit, args) });
+        Ok(())
     }
 
-    /// `rtcOccluded1` on a raw ray with optional arguments.
-    pub fn occluded1_raw(&self, ray: &mut sys::RTCRay, args: Option<&mut sys::RTCOccludedArguments>) {
-        self.assert_committed();
-        let args = args.map_or(std::ptr::null_mut(), |a| a as *mut _);
-        // SAFETY: as in `intersect1_raw`.
-        unsafe { sys::rtcOccluded1(self.inner.raw, ray, args) };
+    /// `rtcOccluded1` on a raw ray with optional arguments; occluded gives `tfar = -inf`.
+    /// Refused on an uncommitted scene, as [`Scene::intersect1_raw`].
+    pub fn occluded1_raw(
+        &self,
+        ray: &mut sys::RTCRay,
+        args: Option<&mut OccludedArgs<'_>>,
+    ) -> Result<(), EmbreeError> {
+        if !self.committed {
+            return Err(EmbreeError::NotCommitted);
+        }
+        let args = args.map_or(std::ptr::null_mut(), |a| &mut a.raw as *mut _);
+        // SAFETY: as in `intersect1_raw`, with `ray` an exclusive RTCRay (rtcOccluded1 docs).
+        panic::query(|| unsafe { sys::rtcOccluded1(self.inner.raw, ray, args) });
+        Ok(())
     }
 }
 
@@ -521,36 +671,51 @@ impl Scene {
 #[repr(C, align(64))]
 struct AlignedValid<const N: usize>([i32; N]);
 
+/// The valid mask Embree reads: -1 for lanes traced, 0 for the others (any other value in
+/// `valid` counts as 0).
+fn aligned_valid<const N: usize>(valid: &[i32; N]) -> AlignedValid<N> {
+    AlignedValid(valid.map(|v| if v == -1 { -1 } else { 0 }))
+}
+
 macro_rules! packet_queries {
     ($isect:ident, $occl:ident, $n:literal, $rayhit:ty, $ray:ty, $fi:ident, $fo:ident) => {
         impl Scene {
             #[doc = concat!("`rtcIntersect", stringify!($n), "`: lanes with `valid[i] == -1` are traced.")]
+            /// Refused on an uncommitted scene; a callback panic is resumed here.
             pub fn $isect(
                 &self,
                 valid: &[i32; $n],
                 rayhit: &mut $rayhit,
-                args: Option<&mut sys::RTCIntersectArguments>,
-            ) {
-                self.assert_committed();
-                let args = args.map_or(std::ptr::null_mut(), |a| a as *mut _);
-                let valid = AlignedValid(*valid);
-                // SAFETY: the scene is live and committed; `valid` has N lanes and the alignment
-                // rtcIntersectN requires (N*4 bytes); `rayhit` is the bindgen type with Embree's
-                // required alignment (repr(align) in the bindings).
-                unsafe { sys::$fi(valid.0.as_ptr(), self.inner.raw, rayhit, args) };
+                args: Option<&mut IntersectArgs<'_>>,
+            ) -> Result<(), EmbreeError> {
+                if !self.committed {
+                    return Err(EmbreeError::NotCommitted);
+                }
+                let args = args.map_or(std::ptr::null_mut(), |a| &mut a.raw as *mut _);
+                let valid = aligned_valid(valid);
+                // SAFETY: the scene is live and committed; `valid` has N lanes of -1 or 0 and
+                // the alignment rtcIntersectN requires (N*4 bytes); `rayhit` is the bindgen type
+                // with Embree's layout and alignment (repr(align) in the bindings), exclusive
+                // plain data; `args` as in `intersect1_raw` (rtcIntersect4/8/16 docs).
+                panic::query(|| unsafe { sys::$fi(valid.0.as_ptr(), self.inner.raw, rayhit, args) });
+                Ok(())
             }
             #[doc = concat!("`rtcOccluded", stringify!($n), "`: occluded lanes get `tfar = -inf`.")]
+            /// Refused on an uncommitted scene; a callback panic is resumed here.
             pub fn $occl(
                 &self,
                 valid: &[i32; $n],
                 ray: &mut $ray,
-                args: Option<&mut sys::RTCOccludedArguments>,
-            ) {
-                self.assert_committed();
-                let args = args.map_or(std::ptr::null_mut(), |a| a as *mut _);
-                let valid = AlignedValid(*valid);
-                // SAFETY: as for the intersect variant.
-                unsafe { sys::$fo(valid.0.as_ptr(), self.inner.raw, ray, args) };
+                args: Option<&mut OccludedArgs<'_>>,
+            ) -> Result<(), EmbreeError> {
+                if !self.committed {
+                    return Err(EmbreeError::NotCommitted);
+                }
+                let args = args.map_or(std::ptr::null_mut(), |a| &mut a.raw as *mut _);
+                let valid = aligned_valid(valid);
+                // SAFETY: as for the intersect variant (rtcOccluded4/8/16 docs).
+                panic::query(|| unsafe { sys::$fo(valid.0.as_ptr(), self.inner.raw, ray, args) });
+                Ok(())
             }
         }
     };

@@ -5,15 +5,16 @@
 //! this module owns the FFI: it reads rays from Embree's SOA layout, calls the test, and for
 //! each candidate hit copies the instance ID stack, sets `tfar`, invokes the user's filter
 //! functions, and accepts or restores. No panic crosses into Embree: every callback body runs
-//! in `catch_unwind`, and a panic counts as "no hit" (and is counted).
+//! in `catch_unwind`, and the panic is resumed in the Rust caller of the query, or reported by
+//! `commit` (see `src/embree/panic.rs`).
 
 use std::ffi::c_void;
-use std::panic::{catch_unwind, AssertUnwindSafe};
-use std::sync::atomic::{AtomicU64, Ordering};
+use std::sync::Arc;
 
 use glam::Vec3;
 
 use super::device::{EmbreeError, MAX_INSTANCE_LEVEL_COUNT};
+use super::panic::{self, PanicRecord};
 use super::scene::{OwnedGeometry, Scene};
 use super::sys;
 
@@ -37,12 +38,22 @@ pub trait UserPrimitives: Send + Sync + 'static {
     fn intersect(&self, prim: u32, org: Vec3, dir: Vec3, tnear: f32, tfar: f32) -> Option<PrimHit>;
 }
 
-/// Callback failures (panics caught at the FFI boundary), counted process-wide.
-static CALLBACK_PANICS: AtomicU64 = AtomicU64::new(0);
+/// What a user geometry's `geometryUserPtr` points to: the primitives and the record of
+/// callback panics that no Rust caller was waiting for.
+pub(crate) struct UserData<T> {
+    pub(crate) prims: T,
+    pub(crate) panics: Arc<PanicRecord>,
+}
 
-/// How many callback panics were caught (and turned into misses) since start.
-pub fn callback_panics() -> u64 {
-    CALLBACK_PANICS.load(Ordering::Relaxed)
+impl<T> UserData<T> {
+    pub(crate) fn new(prims: T) -> Self {
+        UserData { prims, panics: Arc::default() }
+    }
+
+    /// How many callback panics were recorded (not resumed in a Rust caller) so far.
+    pub(crate) fn recorded_panics(&self) -> u64 {
+        self.panics.count()
+    }
 }
 
 // ---------------------------------------------------------------------------------------------
@@ -75,22 +86,26 @@ impl Soa {
     /// # Safety
     /// `base` must point to at least `fields * n` 4-byte values valid for reads and writes.
     unsafe fn f(&self, field: usize, lane: usize) -> f32 {
-        f32::from_bits(self.base.add(field * self.n + lane).read())
+        // SAFETY: in bounds by this function's contract.
+        f32::from_bits(unsafe { self.base.add(field * self.n + lane).read() })
     }
     /// # Safety
     /// As for [`Soa::f`].
     unsafe fn set_f(&self, field: usize, lane: usize, x: f32) {
-        self.base.add(field * self.n + lane).write(x.to_bits())
+        // SAFETY: in bounds by this function's contract.
+        unsafe { self.base.add(field * self.n + lane).write(x.to_bits()) }
     }
     /// # Safety
     /// As for [`Soa::f`].
     unsafe fn u(&self, field: usize, lane: usize) -> u32 {
-        self.base.add(field * self.n + lane).read()
+        // SAFETY: in bounds by this function's contract.
+        unsafe { self.base.add(field * self.n + lane).read() }
     }
     /// # Safety
     /// As for [`Soa::f`].
     unsafe fn set_u(&self, field: usize, lane: usize, x: u32) {
-        self.base.add(field * self.n + lane).write(x)
+        // SAFETY: in bounds by this function's contract.
+        unsafe { self.base.add(field * self.n + lane).write(x) }
     }
 }
 
@@ -104,11 +119,14 @@ struct LaneRay {
 /// # Safety
 /// `ray` must be an RTCRayN of width `ray.n` and `lane < ray.n`.
 unsafe fn read_ray(ray: Soa, lane: usize) -> LaneRay {
-    LaneRay {
-        org: Vec3::new(ray.f(RAY_ORG, lane), ray.f(RAY_ORG + 1, lane), ray.f(RAY_ORG + 2, lane)),
-        dir: Vec3::new(ray.f(RAY_DIR, lane), ray.f(RAY_DIR + 1, lane), ray.f(RAY_DIR + 2, lane)),
-        tnear: ray.f(RAY_TNEAR, lane),
-        tfar: ray.f(RAY_TFAR, lane),
+    // SAFETY: the ray fields are among the 12 of an RTCRayN of width n, lane < n (contract).
+    unsafe {
+        LaneRay {
+            org: Vec3::new(ray.f(RAY_ORG, lane), ray.f(RAY_ORG + 1, lane), ray.f(RAY_ORG + 2, lane)),
+            dir: Vec3::new(ray.f(RAY_DIR, lane), ray.f(RAY_DIR + 1, lane), ray.f(RAY_DIR + 2, lane)),
+            tnear: ray.f(RAY_TNEAR, lane),
+            tfar: ray.f(RAY_TFAR, lane),
+        }
     }
 }
 
@@ -122,17 +140,21 @@ unsafe fn write_hit(
     geom: u32,
     context: *const sys::RTCRayQueryContext,
 ) {
-    hit.set_f(HIT_NG, lane, h.ng.x);
-    hit.set_f(HIT_NG + 1, lane, h.ng.y);
-    hit.set_f(HIT_NG + 2, lane, h.ng.z);
-    hit.set_f(HIT_U, lane, h.u);
-    hit.set_f(HIT_V, lane, h.v);
-    hit.set_u(HIT_PRIM, lane, prim);
-    hit.set_u(HIT_GEOM, lane, geom);
-    let ctx = &*context;
-    for l in 0..MAX_INSTANCE_LEVEL_COUNT {
-        hit.set_u(HIT_INST + l, lane, ctx.instID[l]);
-        hit.set_u(HIT_INST_PRIM + l, lane, ctx.instPrimID[l]);
+    // SAFETY: every field written is one of the HIT_FIELDS of an RTCHitN of width n, lane < n,
+    // and `context` is a valid query context (this function's contract).
+    unsafe {
+        hit.set_f(HIT_NG, lane, h.ng.x);
+        hit.set_f(HIT_NG + 1, lane, h.ng.y);
+        hit.set_f(HIT_NG + 2, lane, h.ng.z);
+        hit.set_f(HIT_U, lane, h.u);
+        hit.set_f(HIT_V, lane, h.v);
+        hit.set_u(HIT_PRIM, lane, prim);
+        hit.set_u(HIT_GEOM, lane, geom);
+        let ctx = &*context;
+        for l in 0..MAX_INSTANCE_LEVEL_COUNT {
+            hit.set_u(HIT_INST + l, lane, ctx.instID[l]);
+            hit.set_u(HIT_INST_PRIM + l, lane, ctx.instPrimID[l]);
+        }
     }
 }
 
@@ -152,53 +174,48 @@ fn lane_mask(n: usize, lane: usize) -> [i32; MAX_N] {
 // Callbacks.
 
 unsafe extern "C" fn bounds_callback<T: UserPrimitives>(args: *const sys::RTCBoundsFunctionArguments) {
-    let r = catch_unwind(AssertUnwindSafe(|| {
-        // SAFETY: Embree passes valid arguments whose geometryUserPtr is the pointer we set with
-        // rtcSetGeometryUserData: a `T` kept alive by the scene (the bounds callback's own
-        // userPtr is ignored by Embree 4, so we never rely on it).
-        let args = unsafe { &*args };
-        // SAFETY: geometryUserPtr is the `T` set by `new_user_geometry`, alive while the scene is.
-        let data = unsafe { &*(args.geometryUserPtr as *const T) };
-        let b = data.bounds(args.primID);
-        // SAFETY: bounds_o points to one writable RTCBounds (rtcSetGeometryBoundsFunction docs).
-        let out = unsafe { &mut *args.bounds_o };
-        match b {
-            Some((lo, hi)) if lo.is_finite() && hi.is_finite() && lo.cmple(hi).all() => {
-                (out.lower_x, out.lower_y, out.lower_z) = (lo.x, lo.y, lo.z);
-                (out.upper_x, out.upper_y, out.upper_z) = (hi.x, hi.y, hi.z);
-            }
-            _ => {
-                // Excluded: empty bounds (lower > upper), which Embree's builders skip.
-                (out.lower_x, out.lower_y, out.lower_z) = (f32::INFINITY, f32::INFINITY, f32::INFINITY);
-                (out.upper_x, out.upper_y, out.upper_z) =
-                    (f32::NEG_INFINITY, f32::NEG_INFINITY, f32::NEG_INFINITY);
-            }
+    // SAFETY: Embree passes valid arguments whose geometryUserPtr is the pointer we set with
+    // rtcSetGeometryUserData: a `UserData<T>` kept alive by the scene (the bounds callback's own
+    // userPtr is ignored by Embree 4, so we never rely on it); bounds_o points to one writable
+    // RTCBounds (rtcSetGeometryBoundsFunction docs).
+    let (data, out, prim) = unsafe {
+        let args = &*args;
+        (&*(args.geometryUserPtr as *const UserData<T>), &mut *args.bounds_o, args.primID)
+    };
+    // Runs on Embree's build threads: a panic is recorded for `Scene::commit` to report.
+    let b = panic::record_on_panic(&data.panics, "bounds", || data.prims.bounds(prim));
+    match b.flatten() {
+        Some((lo, hi)) if lo.is_finite() && hi.is_finite() && lo.cmple(hi).all() => {
+            (out.lower_x, out.lower_y, out.lower_z) = (lo.x, lo.y, lo.z);
+            (out.upper_x, out.upper_y, out.upper_z) = (hi.x, hi.y, hi.z);
         }
-    }));
-    if r.is_err() {
-        CALLBACK_PANICS.fetch_add(1, Ordering::Relaxed);
+        _ => {
+            // Excluded (or panicked): empty bounds (lower > upper), which Embree's builders skip.
+            (out.lower_x, out.lower_y, out.lower_z) = (f32::INFINITY, f32::INFINITY, f32::INFINITY);
+            (out.upper_x, out.upper_y, out.upper_z) =
+                (f32::NEG_INFINITY, f32::NEG_INFINITY, f32::NEG_INFINITY);
+        }
     }
 }
 
 unsafe extern "C" fn intersect_callback<T: UserPrimitives>(args: *const sys::RTCIntersectFunctionNArguments) {
-    let r = catch_unwind(AssertUnwindSafe(|| {
-        // SAFETY: Embree passes valid arguments for N lanes: `valid` has N ints, `rayhit` is an
-        // RTCRayHitN of width N, `context` is the query's context, and geometryUserPtr is our `T`
-        // (rtcSetGeometryIntersectFunction docs), alive while the scene is.
-        let a = unsafe { &*args };
+    // SAFETY: Embree passes valid arguments for N lanes: `valid` has N ints, `rayhit` is an
+    // RTCRayHitN of width N, `context` is the query's context, and geometryUserPtr is our
+    // `UserData<T>` (rtcSetGeometryIntersectFunction docs), alive while the scene is.
+    let a = unsafe { &*args };
+    // SAFETY: as above.
+    let data = unsafe { &*(a.geometryUserPtr as *const UserData<T>) };
+    panic::wrap(&data.panics, "intersect", || {
         // One lane (rtcIntersect1, what the renderer calls) gets its own copy with the width a
         // constant, so the SOA indexing and the lane loop fold away.
         match a.N as usize {
             // SAFETY: `a` is the argument block Embree passed, with its own N.
-            1 => unsafe { intersect_lanes::<T>(args, a, 1) },
+            1 => unsafe { intersect_lanes::<T>(args, a, &data.prims, 1) },
             // SAFETY: as above.
-            n @ 2..=MAX_N => unsafe { intersect_lanes::<T>(args, a, n) },
+            n @ 2..=MAX_N => unsafe { intersect_lanes::<T>(args, a, &data.prims, n) },
             _ => {}
         }
-    }));
-    if r.is_err() {
-        CALLBACK_PANICS.fetch_add(1, Ordering::Relaxed);
-    }
+    });
 }
 
 /// Offer each active lane's candidate hits on `prim`, nearest first, to `offer(lane, ray, hit)`,
@@ -236,16 +253,15 @@ unsafe fn for_each_candidate<T: UserPrimitives>(
 /// The body of [`intersect_callback`] for packet width `n`.
 ///
 /// # Safety
-/// `a` is `*args`, valid arguments from Embree with `a.N == n` and `1 <= n <= MAX_N`, whose
-/// geometryUserPtr is a live `T`.
+/// `a` is `*args`, valid arguments from Embree with `a.N == n` and `1 <= n <= MAX_N`, and
+/// `data` the primitives its geometryUserPtr holds.
 #[inline(always)]
 unsafe fn intersect_lanes<T: UserPrimitives>(
     args: *const sys::RTCIntersectFunctionNArguments,
     a: &sys::RTCIntersectFunctionNArguments,
+    data: &T,
     n: usize,
 ) {
-    // SAFETY: geometryUserPtr is our `T` (the caller's contract).
-    let data = unsafe { &*(a.geometryUserPtr as *const T) };
     // SAFETY: `valid` points to N ints (Embree's RTCIntersectFunctionNArguments contract).
     let valid = unsafe { std::slice::from_raw_parts(a.valid, n) };
     let ray = Soa { base: a.rayhit as *mut u32, n };
@@ -267,8 +283,9 @@ unsafe fn intersect_lanes<T: UserPrimitives>(
                 hit: hit.base as *mut sys::RTCHitN,
                 N: a.N,
             };
-            // SAFETY: `fargs` describes this very ray-hit packet with one lane active;
-            // Embree calls the geometry's and the arguments' filters, which may clear the lane.
+            // `fargs` describes this very ray-hit packet with one lane active; Embree calls
+            // the geometry's and the arguments' filters, which may clear the lane
+            // (rtcInvokeIntersectFilterFromGeometry docs).
             sys::rtcInvokeIntersectFilterFromGeometry(args, &fargs);
             if mask[lane] == -1 {
                 return true; // accepted
@@ -289,36 +306,35 @@ unsafe fn intersect_lanes<T: UserPrimitives>(
 struct HitBuf([u32; HIT_FIELDS * MAX_N]);
 
 unsafe extern "C" fn occluded_callback<T: UserPrimitives>(args: *const sys::RTCOccludedFunctionNArguments) {
-    let r = catch_unwind(AssertUnwindSafe(|| {
-        // SAFETY: as in `intersect_callback`, with `ray` an RTCRayN of width N.
-        let a = unsafe { &*args };
+    // SAFETY: as in `intersect_callback`, with `ray` an RTCRayN of width N
+    // (rtcSetGeometryOccludedFunction docs).
+    let a = unsafe { &*args };
+    // SAFETY: as above.
+    let data = unsafe { &*(a.geometryUserPtr as *const UserData<T>) };
+    panic::wrap(&data.panics, "occluded", || {
         // One lane (rtcOccluded1) gets its own copy, as in `intersect_callback`.
         match a.N as usize {
             // SAFETY: `a` is the argument block Embree passed, with its own N.
-            1 => unsafe { occluded_lanes::<T>(args, a, 1) },
+            1 => unsafe { occluded_lanes::<T>(args, a, &data.prims, 1) },
             // SAFETY: as above.
-            n @ 2..=MAX_N => unsafe { occluded_lanes::<T>(args, a, n) },
+            n @ 2..=MAX_N => unsafe { occluded_lanes::<T>(args, a, &data.prims, n) },
             _ => {}
         }
-    }));
-    if r.is_err() {
-        CALLBACK_PANICS.fetch_add(1, Ordering::Relaxed);
-    }
+    });
 }
 
 /// The body of [`occluded_callback`] for packet width `n`.
 ///
 /// # Safety
-/// `a` is `*args`, valid arguments from Embree with `a.N == n` and `1 <= n <= MAX_N`, whose
-/// geometryUserPtr is a live `T`.
+/// `a` is `*args`, valid arguments from Embree with `a.N == n` and `1 <= n <= MAX_N`, and
+/// `data` the primitives its geometryUserPtr holds.
 #[inline(always)]
 unsafe fn occluded_lanes<T: UserPrimitives>(
     args: *const sys::RTCOccludedFunctionNArguments,
     a: &sys::RTCOccludedFunctionNArguments,
+    data: &T,
     n: usize,
 ) {
-    // SAFETY: geometryUserPtr is our `T`, alive while the scene is.
-    let data = unsafe { &*(a.geometryUserPtr as *const T) };
     // SAFETY: `valid` points to N ints (RTCOccludedFunctionNArguments contract).
     let valid = unsafe { std::slice::from_raw_parts(a.valid, n) };
     let ray = Soa { base: a.ray as *mut u32, n };
@@ -342,6 +358,7 @@ unsafe fn occluded_lanes<T: UserPrimitives>(
                 hit: hit.base as *mut sys::RTCHitN,
                 N: a.N,
             };
+            // As in `intersect_lanes` (rtcInvokeOccludedFilterFromGeometry docs).
             sys::rtcInvokeOccludedFilterFromGeometry(args, &fargs);
             if mask[lane] == -1 {
                 // Occluded: Embree's convention is tfar = -inf.
@@ -377,35 +394,43 @@ impl Default for UserGeometryOptions {
 /// geometry and every scene it is attached to are released.
 pub(crate) unsafe fn new_user_geometry<T: UserPrimitives>(
     device_raw: sys::RTCDevice,
-    data: *const T,
+    data: *const UserData<T>,
     options: UserGeometryOptions,
 ) -> sys::RTCGeometry {
     // SAFETY: the caller guarantees the device and data; the callbacks are monomorphised for
-    // `T` and only ever cast geometryUserPtr back to `T`.
-    let geom = sys::rtcNewGeometry(device_raw, sys::RTCGeometryType::RTC_GEOMETRY_TYPE_USER);
-    if geom.is_null() {
-        return geom;
+    // `T` and only ever cast geometryUserPtr back to `UserData<T>`; a null geometry (error
+    // recorded on the device) is returned as is (rtcNewGeometry docs).
+    unsafe {
+        let geom = sys::rtcNewGeometry(device_raw, sys::RTCGeometryType::RTC_GEOMETRY_TYPE_USER);
+        if geom.is_null() {
+            return geom;
+        }
+        sys::rtcSetGeometryUserPrimitiveCount(geom, (*data).prims.count());
+        sys::rtcSetGeometryUserData(geom, data as *mut c_void);
+        sys::rtcSetGeometryBoundsFunction(geom, Some(bounds_callback::<T>), std::ptr::null_mut());
+        sys::rtcSetGeometryIntersectFunction(geom, Some(intersect_callback::<T>));
+        sys::rtcSetGeometryOccludedFunction(geom, Some(occluded_callback::<T>));
+        sys::rtcSetGeometryMask(geom, options.mask);
+        sys::rtcCommitGeometry(geom);
+        geom
     }
-    sys::rtcSetGeometryUserPrimitiveCount(geom, (*data).count());
-    sys::rtcSetGeometryUserData(geom, data as *mut c_void);
-    sys::rtcSetGeometryBoundsFunction(geom, Some(bounds_callback::<T>), std::ptr::null_mut());
-    sys::rtcSetGeometryIntersectFunction(geom, Some(intersect_callback::<T>));
-    sys::rtcSetGeometryOccludedFunction(geom, Some(occluded_callback::<T>));
-    sys::rtcSetGeometryMask(geom, options.mask);
-    sys::rtcCommitGeometry(geom);
-    geom
 }
 
 impl Scene {
     /// Attach `prims` as one user geometry (one Embree primitive per element); the scene owns
     /// the data from now on. Returns the geomID.
+    ///
+    /// A panic in `prims`' callbacks never unwinds into Embree: under this crate's queries it
+    /// is resumed in the caller once Embree returns; in `bounds` (run by [`Scene::commit`] on
+    /// Embree's build threads) it makes `commit` return [`EmbreeError::CallbackPanicked`].
     pub fn attach_user<T: UserPrimitives>(
         &mut self,
         prims: T,
         options: UserGeometryOptions,
     ) -> Result<u32, EmbreeError> {
-        let boxed = Box::new(prims);
-        let ptr: *const T = &*boxed;
+        let boxed = Box::new(UserData::new(prims));
+        let ptr: *const UserData<T> = &*boxed;
+        let record = boxed.panics.clone();
         let device = self.device().clone();
         // Hand the box to the scene first: its heap address stays put when the box moves.
         self.keep_alive(boxed)?;
@@ -414,7 +439,9 @@ impl Scene {
         let raw = unsafe { new_user_geometry(device.raw(), ptr, options) };
         let geom = OwnedGeometry::new(&device, raw, "user geometry")?;
         device.check()?;
-        self.attach_raw(geom)
+        let id = self.attach_raw(geom)?;
+        self.watch_panics(id, record)?;
+        Ok(id)
     }
 }
 

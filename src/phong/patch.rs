@@ -17,30 +17,33 @@ use super::real::{Real, V3};
 /// power of two, so the solve
 /// does not lose accuracy with distance from the origin or with the patch size. Ray parameters
 /// `t` are the same in both frames.
+///
+/// The fields are read through accessors: they are derived together (the bounds and the prism
+/// from the coefficients, all of them from the frame), so they cannot be edited one at a time.
 #[derive(Clone, Copy, Debug)]
 pub struct Patch<T> {
-    pub center: V3<T>,
-    pub scale: T,
-    pub inv_scale: T,
+    pub(crate) center: V3<T>,
+    pub(crate) scale: T,
+    pub(crate) inv_scale: T,
     /// Polynomial coefficients (local frame): `P(u,v) = A u² + B v² + C uv + D u + E v + F`.
-    pub a: V3<T>,
-    pub b: V3<T>,
-    pub c: V3<T>,
-    pub d: V3<T>,
-    pub e: V3<T>,
-    pub f: V3<T>,
+    pub(crate) a: V3<T>,
+    pub(crate) b: V3<T>,
+    pub(crate) c: V3<T>,
+    pub(crate) d: V3<T>,
+    pub(crate) e: V3<T>,
+    pub(crate) f: V3<T>,
     /// Unit vertex normals (for shading).
-    pub n: [V3<T>; 3],
+    pub(crate) n: [V3<T>; 3],
     /// Conservative local-frame bounds (the exact range of each coordinate over the domain, padded).
-    pub lo: V3<T>,
-    pub hi: V3<T>,
+    pub(crate) lo: V3<T>,
+    pub(crate) hi: V3<T>,
     /// A tighter conservative hull (local frame): the prism of 5 half-spaces `n_k · x <= h_k`:
     /// the face normal and its opposite (the patch's thickness) and the 3 outward edge normals in
     /// the face plane (each edge's side drop), every offset the maximum over the 6 control points.
-    pub prism_n: [V3<T>; 5],
-    pub prism_h: [T; 5],
+    pub(crate) prism_n: [V3<T>; 5],
+    pub(crate) prism_h: [T; 5],
     /// Whether the patch has zero area or non-finite input: it is never hit.
-    pub degenerate: bool,
+    pub(crate) degenerate: bool,
 }
 
 /// The 6 control points of the quadratic Bézier triangle, world space, f64:
@@ -184,6 +187,13 @@ pub fn adapt_shading_normal<T: Real>(wo: V3<T>, ng: V3<T>, ns: V3<T>) -> V3<T> {
     }
 }
 
+/// The padding of a patch's local-frame bounds and prism offsets for precision `T`: the
+/// rounding of the control points and of their cast to `T`, relative to the local frame (whose
+/// extent is about 1).
+fn bounds_pad<T: Real>() -> f64 {
+    T::gamma(8).to_f64() * 4.0 + f64::EPSILON * 16.0
+}
+
 impl<T: Real> Patch<T> {
     /// A patch from 3 positions, 3 normals (normalised here) and `alpha` in [0, 1].
     pub fn new(p: [glam::DVec3; 3], n: [glam::DVec3; 3], alpha: f64) -> Self {
@@ -234,9 +244,8 @@ impl<T: Real> Patch<T> {
             (range(V3::new(1.0, 0.0, 0.0)), range(V3::new(0.0, 1.0, 0.0)), range(V3::new(0.0, 0.0, 1.0)));
         let mut lo = V3::new(x.0, y.0, z.0);
         let mut hi = V3::new(x.1, y.1, z.1);
-        // Pad by the rounding of the control points and their cast to T (relative to the
-        // local frame, whose extent is about 1).
-        let pad = T::gamma(8).to_f64() * 4.0 + f64::EPSILON * 16.0;
+        // Pad by the rounding of the control points and their cast to T.
+        let pad = bounds_pad::<T>();
         // The prism (Ogaki & Tokuyoshi 2011 bound the patch by its thickness and edge side drops):
         // the face normal both ways and the three outward edge normals, each offset the exact
         // maximum of the surface along it.
@@ -273,10 +282,26 @@ impl<T: Real> Patch<T> {
         }
     }
 
-    /// The same patch in another precision (fields converted; from f32 to f64 exactly).
+    /// The same patch in another precision `U`, as accurate as [`Patch::new`] in `U` would
+    /// build it: from f32 to f64 every field converts exactly; from f64 to f32 the frame's
+    /// centre is rounded to f32 first and the patch re-expressed in that frame (its constant
+    /// coefficient, bounds and prism offsets shifted by the rounding, computed in f64), and the
+    /// bounds padded for f32. Rounding only the fields would leave the coefficients relative to
+    /// a centre the f32 patch no longer has: a t error of the centre's rounding over the patch
+    /// size, large for small patches far from the origin.
     pub fn cast<U: Real>(&self) -> Patch<U> {
+        let center = self.center.to_f64();
+        let center_u: V3<U> = center.cast();
+        // Compute the shift of the local frame (exact in f64: the centre and its rounding are
+        // neighbours, Sterbenz) and the extra padding U needs over T.
+        let shift = (center - center_u.to_f64()) * self.inv_scale.to_f64();
+        let extra = (bounds_pad::<U>() - bounds_pad::<T>()).max(0.0);
+        let widen = V3::new(extra, extra, extra);
+        let prism_n = self.prism_n.map(|n| n.to_f64());
+        let prism_h: [f64; 5] =
+            std::array::from_fn(|k| self.prism_h[k].to_f64() + prism_n[k].dot(shift) + extra);
         Patch {
-            center: self.center.cast(),
+            center: center_u,
             scale: U::from_f64(self.scale.to_f64()),
             inv_scale: U::from_f64(self.inv_scale.to_f64()),
             a: self.a.cast(),
@@ -284,14 +309,56 @@ impl<T: Real> Patch<T> {
             c: self.c.cast(),
             d: self.d.cast(),
             e: self.e.cast(),
-            f: self.f.cast(),
+            f: (self.f.to_f64() + shift).cast(),
             n: self.n.map(|x| x.cast()),
-            prism_n: self.prism_n.map(|n| n.cast()),
-            prism_h: self.prism_h.map(|h| U::from_f64(h.to_f64())),
-            lo: self.lo.cast(),
-            hi: self.hi.cast(),
+            prism_n: prism_n.map(|n| n.cast()),
+            prism_h: prism_h.map(U::from_f64),
+            lo: (self.lo.to_f64() + shift - widen).cast(),
+            hi: (self.hi.to_f64() + shift + widen).cast(),
             degenerate: self.degenerate,
         }
+    }
+
+    /// The local frame's centre (world space).
+    pub fn center(&self) -> V3<T> {
+        self.center
+    }
+
+    /// The local frame's scale (a power of two): `x_world = x_local * scale + center`.
+    pub fn scale(&self) -> T {
+        self.scale
+    }
+
+    /// `1 / scale`.
+    pub fn inv_scale(&self) -> T {
+        self.inv_scale
+    }
+
+    /// The local-frame polynomial coefficients `[A, B, C, D, E, F]` of
+    /// `P(u,v) = A u² + B v² + C uv + D u + E v + F`.
+    pub fn coefficients(&self) -> [V3<T>; 6] {
+        [self.a, self.b, self.c, self.d, self.e, self.f]
+    }
+
+    /// The unit vertex normals.
+    pub fn normals(&self) -> [V3<T>; 3] {
+        self.n
+    }
+
+    /// Conservative local-frame bounds `(lo, hi)`.
+    pub fn local_bounds(&self) -> (V3<T>, V3<T>) {
+        (self.lo, self.hi)
+    }
+
+    /// The conservative prism (local frame): the patch satisfies `normals[k] · x <= offsets[k]`
+    /// for the 5 planes (face normal both ways, then the 3 outward edge normals).
+    pub fn prism(&self) -> ([V3<T>; 5], [T; 5]) {
+        (self.prism_n, self.prism_h)
+    }
+
+    /// Whether the patch has zero area or non-finite input (it is never hit).
+    pub fn degenerate(&self) -> bool {
+        self.degenerate
     }
 
     /// The local-frame point at `(u, v)`.

@@ -2,8 +2,9 @@
 
 use std::path::Path;
 
-use anyhow::{bail, Context};
 use glam::Vec3;
+
+use super::RenderError;
 
 /// A linear-light RGB image, row-major from the top-left pixel.
 #[derive(Clone, Debug, PartialEq)]
@@ -55,23 +56,30 @@ impl Image {
     }
 
     /// Write as sRGB PNG or linear EXR, chosen by the extension.
-    pub fn save(&self, path: &Path) -> anyhow::Result<()> {
+    pub fn save(&self, path: &Path) -> Result<(), RenderError> {
         let ext = path.extension().and_then(|e| e.to_str()).map(|e| e.to_ascii_lowercase());
+        let write = |format: &'static str| {
+            move |source| RenderError::ImageWrite { path: path.to_path_buf(), format, source }
+        };
+        // A pixel buffer whose length does not match the size (the fields are public).
+        let mismatch = |format: &'static str| {
+            write(format)(image::ImageError::Parameter(image::error::ParameterError::from_kind(
+                image::error::ParameterErrorKind::DimensionMismatch,
+            )))
+        };
         match ext.as_deref() {
             Some("png") => {
                 let img = image::RgbImage::from_raw(self.width, self.height, self.to_srgb8())
-                    .context("image buffer size mismatch")?;
-                img.save_with_format(path, image::ImageFormat::Png)
-                    .with_context(|| format!("{}: cannot write PNG", path.display()))?;
+                    .ok_or_else(|| mismatch("PNG"))?;
+                img.save_with_format(path, image::ImageFormat::Png).map_err(write("PNG"))?;
             }
             Some("exr") => {
                 let data: Vec<f32> = self.pixels.iter().flat_map(|c| c.to_array()).collect();
                 let img = image::Rgb32FImage::from_raw(self.width, self.height, data)
-                    .context("image buffer size mismatch")?;
-                img.save_with_format(path, image::ImageFormat::OpenExr)
-                    .with_context(|| format!("{}: cannot write EXR", path.display()))?;
+                    .ok_or_else(|| mismatch("EXR"))?;
+                img.save_with_format(path, image::ImageFormat::OpenExr).map_err(write("EXR"))?;
             }
-            _ => bail!("{}: unknown image extension (use .png or .exr)", path.display()),
+            _ => return Err(RenderError::ImageExtension { path: path.to_path_buf() }),
         }
         Ok(())
     }

@@ -12,7 +12,6 @@ use std::io::IsTerminal;
 use std::sync::atomic::{AtomicU64, Ordering};
 use std::time::{Duration, Instant};
 
-use anyhow::{bail, Context};
 use glam::Vec3;
 use rayon::prelude::*;
 
@@ -22,7 +21,74 @@ pub use world::{
     AmbientOcclusion, Effects, Ground, Light, ObjectMode, ObjectSettings, Rng, Surface, Terminator, World,
 };
 
-use crate::embree::{self, Ray};
+use crate::embree::{self, EmbreeError, PhongMeshError, Ray};
+
+/// Why a world could not be built, a render run, or an image written. The cause of a wrapped
+/// error is its `source()`, so a caller printing the chain gets one line.
+#[derive(Debug, thiserror::Error)]
+pub enum RenderError {
+    /// Width or height is 0 or above 32768.
+    #[error("image size {width}x{height} is out of range (1..=32768 per side)")]
+    ImageSize {
+        /// The requested width.
+        width: u32,
+        /// The requested height.
+        height: u32,
+    },
+    /// Samples per pixel is 0 or above 65536.
+    #[error("samples per pixel {0} is out of range (1..=65536)")]
+    Samples(u32),
+    /// The camera has no frame.
+    #[error("degenerate camera: eye equals look-at, up is parallel to the view, or fov not in (0, 180)")]
+    Camera,
+    /// The render thread pool could not start.
+    #[error("cannot start render threads")]
+    Threads(#[source] rayon::ThreadPoolBuildError),
+    /// An object of the world was refused by Embree.
+    #[error("object {name:?}")]
+    Object {
+        /// The object's name.
+        name: String,
+        /// Why.
+        #[source]
+        source: EmbreeError,
+    },
+    /// An object's Phong mesh was refused.
+    #[error("object {name:?}")]
+    PhongMesh {
+        /// The object's name.
+        name: String,
+        /// Why.
+        #[source]
+        source: PhongMeshError,
+    },
+    /// The ground plane's up direction or height is zero or not finite.
+    #[error("ground: the up direction or height is zero or not finite")]
+    Ground,
+    /// Embree handed out a geomID out of attach order (shading looks objects up by geomID).
+    #[error("unexpected geomID {0}")]
+    UnexpectedGeomId(u32),
+    /// Embree refused the world's scene.
+    #[error(transparent)]
+    Embree(#[from] EmbreeError),
+    /// The output path has neither a `.png` nor an `.exr` extension.
+    #[error("{}: unknown image extension (use .png or .exr)", path.display())]
+    ImageExtension {
+        /// The output path.
+        path: std::path::PathBuf,
+    },
+    /// The image could not be encoded or written.
+    #[error("{}: cannot write {format}", path.display())]
+    ImageWrite {
+        /// The output path.
+        path: std::path::PathBuf,
+        /// "PNG" or "EXR".
+        format: &'static str,
+        /// Why.
+        #[source]
+        source: image::ImageError,
+    },
+}
 
 /// What to render and how.
 #[derive(Clone, Debug)]
@@ -133,17 +199,19 @@ pub fn sample_offset(x: u32, y: u32, s: u32, spp: u32, seed: u64) -> (f32, f32) 
 }
 
 /// Render `world` through `camera`.
-pub fn render(world: &World, camera: &Camera, settings: &RenderSettings) -> anyhow::Result<RenderOutput> {
+pub fn render(
+    world: &World,
+    camera: &Camera,
+    settings: &RenderSettings,
+) -> Result<RenderOutput, RenderError> {
     let (w, h) = (settings.width, settings.height);
     if w == 0 || h == 0 || w > 1 << 15 || h > 1 << 15 {
-        bail!("image size {w}x{h} is out of range (1..=32768 per side)");
+        return Err(RenderError::ImageSize { width: w, height: h });
     }
     if settings.spp == 0 || settings.spp > 1 << 16 {
-        bail!("samples per pixel {} is out of range (1..=65536)", settings.spp);
+        return Err(RenderError::Samples(settings.spp));
     }
-    let frame = camera.frame(w as f32 / h as f32).context(
-        "degenerate camera: eye equals look-at, up is parallel to the view, or fov not in (0, 180)",
-    )?;
+    let frame = camera.frame(w as f32 / h as f32).ok_or(RenderError::Camera)?;
 
     let tiles_x = w.div_ceil(TILE);
     let tiles_y = h.div_ceil(TILE);
@@ -166,7 +234,7 @@ pub fn render(world: &World, camera: &Camera, settings: &RenderSettings) -> anyh
     if let Some(t) = settings.threads {
         pool = pool.num_threads(t.max(1));
     }
-    let pool = pool.build().context("cannot start render threads")?;
+    let pool = pool.build().map_err(RenderError::Threads)?;
 
     let start = Instant::now();
     let tiles: Vec<(Vec<Vec3>, RayCounts)> = pool.install(|| {

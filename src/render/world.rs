@@ -2,10 +2,9 @@
 //! (user geometry), with materials and lights; and the integrator, which simulates only the
 //! effects the scene calls for (see [`Effects`]).
 
-use anyhow::Context;
 use glam::Vec3;
 
-use super::RayCounts;
+use super::{RayCounts, RenderError};
 use crate::embree::{Device, GeometryOptions, Hit, PhongMesh, Ray, Scene, UserGeometryOptions};
 use crate::phong::accuracy::SplitMix;
 use crate::phong::ShadingNormal;
@@ -273,7 +272,7 @@ impl World {
         device: &Device,
         input: &sc::Scene,
         settings: impl Fn(usize, &sc::Mesh) -> ObjectSettings,
-    ) -> anyhow::Result<World> {
+    ) -> Result<World, RenderError> {
         Self::from_scene_with_ground(device, input, None, settings)
     }
 
@@ -284,7 +283,7 @@ impl World {
         input: &sc::Scene,
         ground: Option<Ground>,
         settings: impl Fn(usize, &sc::Mesh) -> ObjectSettings,
-    ) -> anyhow::Result<World> {
+    ) -> Result<World, RenderError> {
         let mut scene = Scene::new(device)?;
         let mut objects = Vec::with_capacity(input.meshes.len());
         for (i, mesh) in input.meshes.iter().enumerate() {
@@ -293,7 +292,7 @@ impl World {
             let id = match s.mode {
                 ObjectMode::Flat => scene
                     .attach_triangles(&mesh.positions, &mesh.indices, GeometryOptions::default())
-                    .with_context(|| format!("object {:?}", mesh.name))?,
+                    .map_err(|source| RenderError::Object { name: mesh.name.clone(), source })?,
                 ObjectMode::Phong { alpha } => {
                     let straight = mesh.straight_edges();
                     let straight =
@@ -305,15 +304,17 @@ impl World {
                         alpha,
                         straight.as_deref(),
                     )
-                    .with_context(|| format!("object {:?}", mesh.name))?;
+                    .map_err(|source| RenderError::PhongMesh { name: mesh.name.clone(), source })?;
                     phong = Some(pm.clone());
                     scene
                         .attach_phong(pm, UserGeometryOptions::default())
-                        .with_context(|| format!("object {:?}", mesh.name))?
+                        .map_err(|source| RenderError::Object { name: mesh.name.clone(), source })?
                 }
             };
             // geomIDs are handed out densely from 0 in attach order on a fresh scene.
-            anyhow::ensure!(id as usize == objects.len(), "unexpected geomID {id}");
+            if id as usize != objects.len() {
+                return Err(RenderError::UnexpectedGeomId(id));
+            }
             let surface = mesh
                 .material
                 .and_then(|m| input.materials.get(m))
@@ -330,11 +331,14 @@ impl World {
             });
         }
         if let Some(g) = ground {
-            let (positions, indices) = g
-                .triangles(input.bounds())
-                .context("ground: the up direction or height is zero or not finite")?;
-            let id = scene.attach_triangles(&positions, &indices, GeometryOptions::default())?;
-            anyhow::ensure!(id as usize == objects.len(), "unexpected geomID {id}");
+            let (positions, indices): (Vec<Vec3>, Vec<[u32; 3]>) =
+                g.triangles(input.bounds()).ok_or(RenderError::Ground)?;
+            let id = scene
+                .attach_triangles(&positions, &indices, GeometryOptions::default())
+                .map_err(|source| RenderError::Object { name: "ground".into(), source })?;
+            if id as usize != objects.len() {
+                return Err(RenderError::UnexpectedGeomId(id));
+            }
             objects.push(Object {
                 name: "ground".into(),
                 mode: ObjectMode::Flat,
