@@ -11,5 +11,5 @@ if ! command -v cc >/dev/null || ! command -v valgrind >/dev/null; then
     $sudo apt-get update -qq >&2 && DEBIAN_FRONTEND=noninteractive $sudo apt-get install -y -qq gcc valgrind >&2
   fi
 fi
-cargo build --release --lib --quiet
-exec cargo test --release "$@"
+cargo build --release --workspace --quiet
+exec cargo test --release --workspace "$@"

@@ -1,7 +1,7 @@
 //! The equal-accuracy summaries of `phongrt bench`: which pre-tessellation level matches direct
 //! Phong, and the extrapolation beyond the levels built.
 
-use phongrt::bench::{equal_depth_summary, equal_silhouette_summary, BenchRow};
+use phongrt_cli::bench::{equal_depth_summary, equal_silhouette_summary, BenchRow};
 
 fn row(method: &str, triangles: usize, bytes: usize, err_t_mean: f64, silhouette_px: usize) -> BenchRow {
     BenchRow {
@@ -71,7 +71,7 @@ fn pretessellation_is_watertight_and_on_the_surface() {
     use std::collections::HashMap;
     let m = phongrt::scene::uv_sphere(12, 6, 1.0);
     for level in [1, 3, 8] {
-        let (pos, idx) = phongrt::bench::pretessellate(&m, 1.0, level);
+        let (pos, idx) = phongrt_cli::bench::pretessellate(&m, 1.0, level);
         assert_eq!(idx.len(), m.indices.len() * (level * level) as usize);
         let key = |i: u32| {
             let q = pos[i as usize];

@@ -3,7 +3,7 @@
 //! an instance of it, traces rays and checks the results; then runs again under valgrind
 //! (memcheck, leak check) when valgrind is installed.
 //!
-//! The shared library must be built first (`cargo build --release --lib`; scripts/test.sh does).
+//! The shared library must be built first (`cargo build --release -p phongrt-capi`; scripts/test.sh does).
 use std::path::PathBuf;
 use std::process::Command;
 
@@ -20,12 +20,15 @@ fn c_program_mixes_triangles_phong_and_instances() {
     let so = lib_dir.join("libphongrt.so");
     assert!(
         so.exists(),
-        "{} is missing: build it with `cargo build --release --lib` (scripts/test.sh does)",
+        "{} is missing: build it with `cargo build --release -p phongrt-capi` (scripts/test.sh does)",
         so.display()
     );
     let cc = std::env::var("CC").unwrap_or_else(|_| "cc".into());
     let out = tempfile::tempdir().unwrap();
     let exe = out.path().join("mixed_scene");
+    // The library's SONAME is libphongrt.so.0: the link an install makes (scripts/install.sh), made
+    // here beside the program.
+    std::os::unix::fs::symlink(&so, out.path().join("libphongrt.so.0")).unwrap();
     let emb_inc = env!("PHONGRT_EMBREE_INCLUDE_DIR");
     let emb_lib = env!("PHONGRT_EMBREE_LIB_DIR");
     let mut c = Command::new(&cc);
@@ -35,7 +38,7 @@ fn c_program_mixes_triangles_phong_and_instances() {
         .arg(format!("-I{}", root.join("include").display()))
         .arg(format!("-I{emb_inc}"))
         .arg(format!("-L{}", lib_dir.display()))
-        .arg(format!("-Wl,-rpath,{}", lib_dir.display()))
+        .arg(format!("-Wl,-rpath,{}", out.path().display()))
         .arg("-lphongrt");
     if !emb_lib.is_empty() {
         c.arg(format!("-L{emb_lib}")).arg(format!("-Wl,-rpath,{emb_lib}"));

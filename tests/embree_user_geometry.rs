@@ -4,9 +4,10 @@ use glam::{Mat4, Vec3};
 use std::panic::{catch_unwind, AssertUnwindSafe};
 
 use phongrt::embree::{
-    sys, Device, EmbreeError, GeometryOptions, IntersectArgs, OccludedArgs, PrimHit, QueryContext, Ray,
-    Scene, UserGeometryOptions, UserPrimitives, UserTriangles,
+    Device, EmbreeError, GeometryOptions, IntersectArgs, OccludedArgs, PrimHit, QueryContext, Ray, Scene,
+    UserGeometryOptions, UserPrimitives, UserTriangles,
 };
+use phongrt::sys;
 
 /// A small closed mesh: an octahedron around the origin.
 fn octahedron() -> (Vec<Vec3>, Vec<[u32; 3]>) {

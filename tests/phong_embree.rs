@@ -187,7 +187,8 @@ fn embree_path_matches_the_pure_rust_intersector() {
 
 #[test]
 fn phong_mesh_attaches_to_a_raw_scene_made_by_the_callers_own_embree_code() {
-    use phongrt::embree::{attach_phong_raw, sys};
+    use phongrt::embree::attach_phong_raw;
+    use phongrt::sys;
     let device = Device::new().unwrap();
     let mesh = uv_sphere(12, 6, 1.0);
     let pm = PhongMesh::new(mesh.positions.clone(), mesh.normals.clone(), mesh.indices.clone(), 1.0).unwrap();

@@ -11,12 +11,12 @@ use std::path::Path;
 use glam::Vec3;
 use phongrt::embree::{Device, Ray};
 use phongrt::phong::{ShadingNormal, DEFAULT_ALPHA};
-use phongrt::render::world::SurfacePoint;
-use phongrt::render::{
+use phongrt::scene::{load_obj, LoadOptions, Mesh, Scene};
+use phongrt_cli::render::world::SurfacePoint;
+use phongrt_cli::render::{
     render, Camera, Ground, Light, ObjectMode, ObjectSettings, RayCounts, RenderSettings, Surface,
     Terminator, World,
 };
-use phongrt::scene::{load_obj, LoadOptions, Mesh, Scene};
 
 const SIZE: u32 = 600;
 

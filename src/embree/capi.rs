@@ -7,9 +7,9 @@ use std::panic::{catch_unwind, AssertUnwindSafe};
 use glam::Vec3;
 
 use super::phong_geometry::PhongMesh;
-use super::sys;
 use super::user_geometry::{new_user_geometry, UserData, UserGeometryOptions};
 use crate::phong::ShadingNormal;
+use crate::sys;
 
 thread_local! {
     static LAST_ERROR: RefCell<CString> = RefCell::new(CString::default());

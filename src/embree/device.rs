@@ -4,7 +4,7 @@ use std::ffi::{c_char, c_void, CStr, CString};
 use std::sync::atomic::{AtomicI64, Ordering};
 use std::sync::{Arc, Mutex};
 
-use super::sys;
+use crate::sys;
 
 /// An Embree error code (`RTCError`), as a matchable value.
 #[derive(Clone, Copy, Debug, PartialEq, Eq, Hash)]

@@ -2,7 +2,6 @@
 //! [`phong_geometry`]) Phong patches as user geometry. All of the crate's `unsafe` lives here.
 pub mod device;
 pub mod scene;
-pub mod sys;
 
 pub use device::{
     header_version, set_flush_denormals, Device, EmbreeError, ErrorCode, MAX_INSTANCE_LEVEL_COUNT,
@@ -13,6 +12,7 @@ pub use scene::{
 mod panic;
 pub mod user_geometry;
 pub use user_geometry::{PrimHit, UserGeometryOptions, UserPrimitives, UserTriangles};
+#[cfg(feature = "capi")]
 pub mod capi;
 pub mod phong_geometry;
 pub use phong_geometry::{attach_phong_raw, PhongMesh, PhongMeshError, RawPhongGeometry};

@@ -6,9 +6,9 @@ use glam::{DVec3, Vec3};
 
 use super::device::EmbreeError;
 use super::scene::Scene;
-use super::sys;
 use super::user_geometry::{new_user_geometry, PrimHit, UserData, UserGeometryOptions, UserPrimitives};
 use crate::phong::{intersect, Method, Patch, ShadingNormal, V3};
+use crate::sys;
 
 /// Why a Phong mesh was refused.
 #[derive(Debug, Clone, thiserror::Error)]

@@ -8,7 +8,7 @@ use glam::{Mat4, Vec3};
 
 use super::device::{Device, EmbreeError, MAX_INSTANCE_LEVEL_COUNT};
 use super::panic::{self, PanicRecord};
-use super::sys;
+use crate::sys;
 
 /// A ray with its valid interval `(tnear, tfar)`; `mask` is tested against geometry masks.
 #[derive(Clone, Copy, Debug, PartialEq)]

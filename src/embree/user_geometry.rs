@@ -16,7 +16,7 @@ use glam::Vec3;
 use super::device::{EmbreeError, MAX_INSTANCE_LEVEL_COUNT};
 use super::panic::{self, PanicRecord};
 use super::scene::{OwnedGeometry, Scene};
-use super::sys;
+use crate::sys;
 
 /// A hit on one primitive, in the primitive's own space (instances are Embree's business).
 #[derive(Clone, Copy, Debug, PartialEq)]

@@ -12,8 +12,8 @@ use std::path::Path;
 
 use glam::Vec3;
 use phongrt::embree::{Device, Ray};
-use phongrt::render::{Camera, ObjectMode, ObjectSettings, World};
 use phongrt::scene::{load_obj, LoadOptions, Scene};
+use phongrt_cli::render::{Camera, ObjectMode, ObjectSettings, World};
 
 const SIZE: u32 = 400;
 

@@ -86,7 +86,7 @@ pub struct RenderArgs {
     /// Terminator of Phong surfaces: lift (shadow rays from Hanika's lifted origin), plain (from the
     /// true surface), or band (the former true-normal band, for comparison) [default: lift].
     #[arg(long, value_parser = parse_terminator)]
-    pub terminator: Option<phongrt::render::Terminator>,
+    pub terminator: Option<phongrt_cli::render::Terminator>,
     /// A ground plane under the scene (perpendicular to the camera's up), receiving its shadows.
     #[arg(long)]
     pub ground: bool,
@@ -176,7 +176,7 @@ pub struct BenchArgs {
     #[arg(long, default_value_t = u32::MAX, hide_default_value = true)]
     pub max_level: u32,
     /// Skip pre-tessellations of more triangles than this (about 85-100 bytes each in Embree).
-    #[arg(long, default_value_t = phongrt::bench::MAX_PRETESSELLATED_TRIANGLES)]
+    #[arg(long, default_value_t = phongrt_cli::bench::MAX_PRETESSELLATED_TRIANGLES)]
     pub max_pretess_tris: u64,
     /// Build every scene in Embree's robust mode (RTC_SCENE_FLAG_ROBUST): no rays slipping between
     /// the tiny triangles of a fine pre-tessellation, at some cost in speed.
@@ -194,8 +194,8 @@ pub fn parse_shading(s: &str) -> Result<phongrt::phong::ShadingNormal, String> {
 }
 
 /// Parse a terminator rule name.
-pub fn parse_terminator(s: &str) -> Result<phongrt::render::Terminator, String> {
-    use phongrt::render::Terminator;
+pub fn parse_terminator(s: &str) -> Result<phongrt_cli::render::Terminator, String> {
+    use phongrt_cli::render::Terminator;
     Terminator::from_name(s).ok_or_else(|| {
         let names: Vec<&str> = Terminator::ALL.iter().map(|r| r.name()).collect();
         format!("{s:?} is not one of {}", names.join(", "))

@@ -11,11 +11,11 @@ use glam::Vec3;
 
 use cli::{Cli, Command, InfoArgs, Mode, RenderArgs};
 use phongrt::embree::{self, Device};
-use phongrt::render::scene_file::{LightSection, ModeName, SceneFile};
-use phongrt::render::{
+use phongrt::scene::{self, LoadOptions};
+use phongrt_cli::render::scene_file::{LightSection, ModeName, SceneFile};
+use phongrt_cli::render::{
     self, AmbientOcclusion, Camera, Light, ObjectMode, ObjectSettings, RenderOutput, RenderSettings, World,
 };
-use phongrt::scene::{self, LoadOptions};
 
 fn main() -> ExitCode {
     let cli = Cli::parse();
@@ -309,7 +309,7 @@ fn apply_scene_file(world: &mut World, sf: &SceneFile) {
 }
 
 fn bench_cmd(args: cli::BenchArgs) -> anyhow::Result<()> {
-    use phongrt::bench::{
+    use phongrt_cli::bench::{
         bench_scene, equal_depth_summary, equal_silhouette_summary, mem_total, plot, plot_scaling, to_csv,
         to_markdown, BenchMethod, BenchOptions,
     };

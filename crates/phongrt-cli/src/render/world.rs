@@ -5,10 +5,10 @@
 use glam::Vec3;
 
 use super::{RayCounts, RenderError};
-use crate::embree::{Device, GeometryOptions, Hit, PhongMesh, Ray, Scene, UserGeometryOptions};
-use crate::phong::accuracy::SplitMix;
-use crate::phong::ShadingNormal;
-use crate::scene as sc;
+use phongrt::embree::{Device, GeometryOptions, Hit, PhongMesh, Ray, Scene, UserGeometryOptions};
+use phongrt::phong::accuracy::SplitMix;
+use phongrt::phong::ShadingNormal;
+use phongrt::scene as sc;
 
 /// How an object's surface is made.
 #[derive(Clone, Copy, Debug, PartialEq)]
@@ -83,7 +83,7 @@ impl Surface {
 #[derive(Clone, Copy, Debug, Default, PartialEq, Eq)]
 pub enum Terminator {
     /// `max(0, n·l)` with the shading normal `n`, and shadow rays whose origin is lifted off the
-    /// surface by Hanika's offset (see [`crate::phong::Patch::shadow_lift`]) where the true surface
+    /// surface by Hanika's offset (see [`phongrt::phong::Patch::shadow_lift`]) where the true surface
     /// turns away from the light, so hard shadows follow the shading normal's terminator. The lift
     /// is refused where a short ray finds other geometry in its way (thin, two-sided and
     /// non-manifold surfaces), and taken on the side the shading point is seen from. The default.

@@ -303,7 +303,7 @@ impl SceneFile {
             }
         }
         if let Some(s) = &r.shading {
-            if crate::phong::ShadingNormal::from_name(s).is_none() {
+            if phongrt::phong::ShadingNormal::from_name(s).is_none() {
                 return Err(bad(
                     "render.shading".into(),
                     format!("{s:?} is not adapted, paper or interpolated"),

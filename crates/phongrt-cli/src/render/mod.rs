@@ -21,7 +21,7 @@ pub use world::{
     AmbientOcclusion, Effects, Ground, Light, ObjectMode, ObjectSettings, Rng, Surface, Terminator, World,
 };
 
-use crate::embree::{self, EmbreeError, PhongMeshError, Ray};
+use phongrt::embree::{self, EmbreeError, PhongMeshError, Ray};
 
 /// Why a world could not be built, a render run, or an image written. The cause of a wrapped
 /// error is its `source()`, so a caller printing the chain gets one line.

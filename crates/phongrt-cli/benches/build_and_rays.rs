@@ -9,8 +9,8 @@ use glam::Vec3;
 use phongrt::embree::{
     set_flush_denormals, Device, GeometryOptions, PhongMesh, Ray, Scene, UserGeometryOptions,
 };
-use phongrt::render::Camera;
 use phongrt::scene::{load_obj, uv_sphere, LoadOptions, Mesh};
+use phongrt_cli::render::Camera;
 
 fn median(mut v: Vec<f64>) -> f64 {
     v.sort_by(|a, b| a.partial_cmp(b).unwrap());

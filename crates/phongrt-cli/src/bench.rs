@@ -6,13 +6,13 @@ use std::time::Instant;
 use glam::Vec3;
 use rayon::prelude::*;
 
-use crate::embree::{
+use crate::render::Camera;
+use phongrt::embree::{
     Device, EmbreeError, GeometryOptions, PhongMesh, PhongMeshError, PrimHit, Ray, Scene,
     UserGeometryOptions, UserPrimitives, UserTriangles,
 };
-use crate::phong::{control_points, intersect, Method, Patch, V3};
-use crate::render::Camera;
-use crate::scene::Mesh;
+use phongrt::phong::{control_points, intersect, Method, Patch, V3};
+use phongrt::scene::Mesh;
 
 /// The ways of rendering a smooth surface from a low-poly mesh.
 #[derive(Clone, Copy, Debug, PartialEq)]
