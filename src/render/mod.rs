@@ -15,7 +15,7 @@ use anyhow::{bail, Context};
 use glam::Vec3;
 use rayon::prelude::*;
 
-pub use camera::{Camera, CameraFrame};
+pub use camera::{Camera, CameraFrame, CameraProblem};
 pub use image_out::{linear_to_srgb, Image};
 pub use world::{AmbientOcclusion, Effects, Light, ObjectMode, ObjectSettings, Rng, Surface, World};
 
