@@ -20,9 +20,14 @@ fn load_in(dir: &Path, name: &str, text: &str) -> Result<Scene, SceneError> {
 
 const TRI: &str = "v 0 0 0\nv 1 0 0\nv 0 1 0\n";
 
+/// `PHONGRT_CORPUS`, else ../shared/corpus beside the repository (or beside its parent).
 fn corpus() -> Option<PathBuf> {
-    let c = Path::new(env!("CARGO_MANIFEST_DIR")).join("../shared/corpus");
-    c.is_dir().then_some(c)
+    let root = Path::new(env!("CARGO_MANIFEST_DIR"));
+    std::env::var_os("PHONGRT_CORPUS")
+        .map(PathBuf::from)
+        .into_iter()
+        .chain([root.join("../shared/corpus"), root.join("../../shared/corpus")])
+        .find(|p| p.is_dir())
 }
 
 fn phongrt() -> Command {
