@@ -194,7 +194,8 @@ fn render_cmd(args: RenderArgs) -> anyhow::Result<()> {
         if let Some(f) = args.camera.fov {
             camera.fov_y_deg = f;
         }
-        if let Some(p) = camera.problem() {
+        // (A zero image size makes the framing infinite; render() refuses that size itself.)
+        if let Some(p) = camera.problem().filter(|_| width > 0 && height > 0) {
             let src = match p {
                 render::CameraProblem::EyeAtLookAt(_) | render::CameraProblem::NonFinite { .. } => {
                     format!("eye from {}, look_at from {}", from[0], from[1])
