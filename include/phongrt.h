@@ -26,7 +26,8 @@ typedef struct phongrt_mesh phongrt_mesh;
 
 /*
  * Build a Phong mesh from `vertex_count` positions and normals (3 floats each; normals need not be
- * unit length but must not be zero) and `triangle_count` triangles (3 vertex indices each), with
+ * unit length but must not be zero: a zero normal is an error naming the vertex) and
+ * `triangle_count` triangles (3 vertex indices each; an array may be NULL when its count is 0), with
  * shape factor `alpha` in [0, 1] (0 = flat triangles, 1 = full Phong tessellation), create its user
  * geometry on the scene's device, attach it to `scene` and return its geomID (the scene must then be
  * committed as usual). `*mesh_out` receives the mesh, for the shading helpers and for
@@ -66,7 +67,9 @@ int phongrt_shading_normal(const phongrt_mesh* mesh, unsigned int prim_id, float
 int phongrt_shading_normal_rule(const phongrt_mesh* mesh, unsigned int prim_id, float u, float v,
                                 const float ray_dir[3], phongrt_shading_rule rule, float normal_out[3]);
 
-/* The surface point at (u, v) of triangle `prim_id` (object space). Returns 0 or -1. */
+/* The surface point at (u, v) of triangle `prim_id` (object space). Returns 0, or -1 for a bad
+ * primitive, a non-finite (u, v), or a (u, v) so far outside the triangle that the point is not
+ * representable (it is then not written). */
 int phongrt_surface_point(const phongrt_mesh* mesh, unsigned int prim_id, float u, float v,
                           float point_out[3]);
 

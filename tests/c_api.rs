@@ -7,45 +7,11 @@
 use std::path::PathBuf;
 use std::process::Command;
 
-fn target_dir() -> PathBuf {
-    // target/<profile>/deps/c_api-HASH -> target/<profile>
-    let exe = std::env::current_exe().unwrap();
-    exe.parent().and_then(|p| p.parent()).unwrap().to_path_buf()
-}
+mod common;
 
 #[test]
 fn c_program_mixes_triangles_phong_and_instances() {
-    let root = PathBuf::from(env!("CARGO_MANIFEST_DIR"));
-    let lib_dir = target_dir();
-    let so = lib_dir.join("libphongrt.so");
-    assert!(
-        so.exists(),
-        "{} is missing: build it with `cargo build --release -p phongrt-capi` (scripts/test.sh does)",
-        so.display()
-    );
-    let cc = std::env::var("CC").unwrap_or_else(|_| "cc".into());
-    let out = tempfile::tempdir().unwrap();
-    let exe = out.path().join("mixed_scene");
-    // The library's SONAME is libphongrt.so.0: the link an install makes (scripts/install.sh), made
-    // here beside the program.
-    std::os::unix::fs::symlink(&so, out.path().join("libphongrt.so.0")).unwrap();
-    let emb_inc = env!("PHONGRT_EMBREE_INCLUDE_DIR");
-    let emb_lib = env!("PHONGRT_EMBREE_LIB_DIR");
-    let mut c = Command::new(&cc);
-    c.args(["-std=c99", "-O1", "-g", "-Wall", "-Wextra", "-Werror", "-o"])
-        .arg(&exe)
-        .arg(root.join("tests/c/mixed_scene.c"))
-        .arg(format!("-I{}", root.join("include").display()))
-        .arg(format!("-I{emb_inc}"))
-        .arg(format!("-L{}", lib_dir.display()))
-        .arg(format!("-Wl,-rpath,{}", out.path().display()))
-        .arg("-lphongrt");
-    if !emb_lib.is_empty() {
-        c.arg(format!("-L{emb_lib}")).arg(format!("-Wl,-rpath,{emb_lib}"));
-    }
-    c.args(["-lembree4", "-lm"]);
-    let st = c.output().expect("cannot run the C compiler");
-    assert!(st.status.success(), "C compile failed:\n{}", String::from_utf8_lossy(&st.stderr));
+    let (_dir, exe) = common::compile_c(&common::root().join("tests/c/mixed_scene.c"), "mixed_scene");
 
     let run = Command::new(&exe).output().unwrap();
     let stdout = String::from_utf8_lossy(&run.stdout);

@@ -143,7 +143,7 @@ fn bad_input_is_one_line_and_nonzero() {
     fails_with(&["render", "scenes/sphere_lowpoly.obj", "--width", "0", "-o", &out], "image size");
     fails_with(
         &["render", "scenes/sphere_lowpoly.obj", "--eye", "0,0,0", "--look-at", "0,0,0", "-o", &out],
-        "degenerate camera",
+        "eye and look_at are both [0.0, 0.0, 0.0]: the view direction is undefined (eye from --eye, look_at from --look-at)",
     );
     fails_with(
         &["render", "scenes/sphere_lowpoly.obj", "--object", "nope=flat", "-o", &out],

@@ -57,20 +57,33 @@ pub unsafe extern "C" fn phongrt_attach_mesh(
             // SAFETY: mesh_out is writable per the contract.
             unsafe { *mesh_out = std::ptr::null_mut() };
         }
-        if scene.is_null() || positions.is_null() || normals.is_null() || indices.is_null() {
-            return Err("phongrt_attach_mesh: NULL scene or array".into());
+        // An array may be NULL when its count is 0 (phongrt.h).
+        if scene.is_null()
+            || (vertex_count > 0 && (positions.is_null() || normals.is_null()))
+            || (triangle_count > 0 && indices.is_null())
+        {
+            return Err("phongrt_attach_mesh: NULL scene, or NULL array with a non-zero count".into());
         }
         if vertex_count > (u32::MAX as usize) || triangle_count > (u32::MAX as usize) {
             return Err("phongrt_attach_mesh: too many vertices or triangles".into());
         }
-        // SAFETY: the arrays hold the stated counts (phongrt.h contract); we copy them.
+        // SAFETY: the arrays hold the stated counts (phongrt.h contract) and are non-NULL when
+        // the count is non-zero (checked above); we copy them.
         let (p, n, idx) = unsafe {
-            let p = read_vec3s(positions, vertex_count);
-            let n = read_vec3s(normals, vertex_count);
-            let i = std::slice::from_raw_parts(indices, triangle_count * 3);
-            let idx: Vec<[u32; 3]> = i.chunks_exact(3).map(|c| [c[0], c[1], c[2]]).collect();
+            let p = if vertex_count > 0 { read_vec3s(positions, vertex_count) } else { Vec::new() };
+            let n = if vertex_count > 0 { read_vec3s(normals, vertex_count) } else { Vec::new() };
+            let idx: Vec<[u32; 3]> = if triangle_count > 0 {
+                let i = std::slice::from_raw_parts(indices, triangle_count * 3);
+                i.chunks_exact(3).map(|c| [c[0], c[1], c[2]]).collect()
+            } else {
+                Vec::new()
+            };
             (p, n, idx)
         };
+        // The header forbids zero normals: such a patch would never be hit.
+        if let Some(i) = n.iter().position(|v| v.is_finite() && v.length_squared() == 0.0) {
+            return Err(format!("phongrt_attach_mesh: vertex {i} has a zero normal"));
+        }
         let mesh = PhongMesh::new(p, n, idx, alpha).map_err(|e| format!("phongrt_attach_mesh: {e}"))?;
         let boxed = Box::new(phongrt_mesh { data: UserData::new(mesh) });
         // SAFETY: `scene` is live (contract), so its device is; the mesh box is leaked to the
@@ -215,13 +228,14 @@ pub unsafe extern "C" fn phongrt_surface_point(
     // SAFETY: `mesh` is live (contract).
     let r = catch_unwind(AssertUnwindSafe(|| unsafe { &(*mesh).data.prims }.surface_point(prim_id, u, v)));
     match r {
-        Ok(Some((p, _err))) => {
+        // Far outside the triangle the point overflows: an error, not success with NaN.
+        Ok(Some((p, _err))) if p.is_finite() => {
             // SAFETY: point_out has 3 writable floats (contract).
             unsafe { std::ptr::copy_nonoverlapping(p.to_array().as_ptr(), point_out, 3) };
             0
         }
         _ => {
-            set_error("phongrt_surface_point: bad primitive or (u, v)");
+            set_error("phongrt_surface_point: bad primitive, or (u, v) not finite or too far out");
             -1
         }
     }

@@ -6,19 +6,25 @@
 //! vertices wherever they share a position and a normal; a position with several normals becomes
 //! several vertices, and the edge between such vertices is a *crease* ([`EdgeKind`]).
 
+pub mod mtl;
 pub mod obj;
 
 use std::collections::HashMap;
 use std::io::Write;
 use std::path::{Path, PathBuf};
 
-use glam::Vec3;
+use glam::{DVec3, Vec3};
 
 /// Errors that stop a scene from loading. Each displays as one line naming the file.
 #[derive(Debug, thiserror::Error)]
 pub enum SceneError {
-    #[error("{path}: cannot read: {source}")]
-    Io { path: PathBuf, source: std::io::Error },
+    /// The cause is part of the message (not also a `source()`, so a chain prints it once).
+    #[error("{path}: cannot read: {error}")]
+    Io { path: PathBuf, error: std::io::Error },
+    #[error("{path}: not a regular file ({kind}); give the path of an OBJ file")]
+    NotRegularFile { path: PathBuf, kind: &'static str },
+    #[error("{path}: larger than the {limit_mib} MiB limit for {what}")]
+    TooLarge { path: PathBuf, what: &'static str, limit_mib: u64 },
     #[error("{path}:{line}: malformed line: {message}")]
     Malformed { path: PathBuf, line: usize, message: String },
     #[error("{path}:{line}: {kind} index {index} out of range ({count} defined so far)")]
@@ -29,6 +35,84 @@ pub enum SceneError {
     Empty { path: PathBuf, detail: String },
     #[error("{path}: binary data (NUL bytes), not an OBJ text file")]
     NotText { path: PathBuf },
+}
+
+/// The most an OBJ file may hold (1 GiB): more is refused before it is read.
+pub const MAX_OBJ_BYTES: u64 = 1 << 30;
+/// The most an MTL file may hold (64 MiB).
+pub const MAX_MTL_BYTES: u64 = 64 << 20;
+
+/// Why an input file could not be read whole.
+#[derive(Debug)]
+pub enum ReadFailure {
+    Io(std::io::Error),
+    /// A FIFO, device, socket or directory: reading it could block or never end.
+    NotRegular(&'static str),
+    TooLarge,
+}
+
+/// Read a whole regular file of at most `limit` bytes. FIFOs, devices (`/dev/zero`), sockets
+/// and directories are refused before they are opened, so reading never blocks or runs away;
+/// the size is checked again while reading (the file may grow).
+pub fn read_regular_file(path: &Path, limit: u64) -> Result<Vec<u8>, ReadFailure> {
+    use std::io::Read;
+    let kind = |m: &std::fs::Metadata| -> Option<&'static str> {
+        use std::os::unix::fs::FileTypeExt;
+        let t = m.file_type();
+        if t.is_file() {
+            None
+        } else if t.is_dir() {
+            Some("a directory")
+        } else if t.is_fifo() {
+            Some("a FIFO")
+        } else if t.is_char_device() {
+            Some("a character device")
+        } else if t.is_block_device() {
+            Some("a block device")
+        } else if t.is_socket() {
+            Some("a socket")
+        } else {
+            Some("not a file")
+        }
+    };
+    let meta = std::fs::metadata(path).map_err(ReadFailure::Io)?;
+    if let Some(k) = kind(&meta) {
+        return Err(ReadFailure::NotRegular(k));
+    }
+    if meta.len() > limit {
+        return Err(ReadFailure::TooLarge);
+    }
+    let f = std::fs::File::open(path).map_err(ReadFailure::Io)?;
+    // The path may have been replaced between the two calls: check what was opened.
+    if let Some(k) = kind(&f.metadata().map_err(ReadFailure::Io)?) {
+        return Err(ReadFailure::NotRegular(k));
+    }
+    let mut bytes = Vec::with_capacity(meta.len() as usize);
+    f.take(limit + 1).read_to_end(&mut bytes).map_err(ReadFailure::Io)?;
+    if bytes.len() as u64 > limit {
+        return Err(ReadFailure::TooLarge);
+    }
+    Ok(bytes)
+}
+
+impl std::fmt::Display for ReadFailure {
+    fn fmt(&self, f: &mut std::fmt::Formatter<'_>) -> std::fmt::Result {
+        match self {
+            ReadFailure::Io(e) => write!(f, "cannot read: {e}"),
+            ReadFailure::NotRegular(k) => write!(f, "not a regular file ({k})"),
+            ReadFailure::TooLarge => write!(f, "too large"),
+        }
+    }
+}
+
+/// A token from an input file as shown in a message: at most 40 characters, and when cut, its
+/// length in bytes (a 10 MB token must not become a 10 MB error line).
+pub fn cut_token(s: &str) -> String {
+    const KEEP: usize = 40;
+    match s.char_indices().nth(KEEP) {
+        None => format!("{s:?}"),
+        Some((end, _)) => format!("{:?}... ({} bytes)", &s[..end], s.len()),
+    }
 }
 
 /// How an edge of a triangle relates to its neighbour (edge `i` runs from corner `i` to `i+1`).
@@ -233,9 +317,17 @@ impl Scene {
 
 /// Load an OBJ file and its MTL files.
 pub fn load_obj(path: &Path, opts: &LoadOptions) -> Result<Scene, SceneError> {
-    let bytes = std::fs::read(path).map_err(|source| SceneError::Io { path: path.to_path_buf(), source })?;
+    let bytes = read_regular_file(path, MAX_OBJ_BYTES).map_err(|e| match e {
+        ReadFailure::Io(error) => SceneError::Io { path: path.to_path_buf(), error },
+        ReadFailure::NotRegular(kind) => SceneError::NotRegularFile { path: path.to_path_buf(), kind },
+        ReadFailure::TooLarge => SceneError::TooLarge {
+            path: path.to_path_buf(),
+            what: "an OBJ file",
+            limit_mib: MAX_OBJ_BYTES >> 20,
+        },
+    })?;
     // OBJ is ASCII in practice; comments and names may be Latin-1, so decode lossily, but a NUL
-    // byte means a binary file.
+    // byte means a binary file (or UTF-16 text).
     if bytes.contains(&0) {
         return Err(SceneError::NotText { path: path.to_path_buf() });
     }
@@ -254,55 +346,39 @@ pub fn load_obj_text(text: &str, path: &Path, opts: &LoadOptions) -> Result<Scen
     let mut materials: Vec<Material> = Vec::new();
     for lib in &raw.mtllibs {
         let mtl_path = obj::resolve_file(&dir, lib);
-        let loaded = std::fs::read(&mtl_path).map_err(|e| e.to_string()).and_then(|b| {
-            tobj::load_mtl_buf(&mut String::from_utf8_lossy(&b).as_bytes()).map_err(|e| e.to_string())
-        });
+        let loaded = read_regular_file(&mtl_path, MAX_MTL_BYTES)
+            .map(|b| mtl::parse(&String::from_utf8_lossy(&b), &mtl_path));
         match loaded {
-            Ok((mats, _)) => {
-                for m in mats {
+            Ok(lib) => {
+                warnings.extend(lib.warning);
+                for m in lib.materials {
                     let tex = m.diffuse_texture.as_ref().map(|t| obj::resolve_file(&dir, t));
                     if let Some(t) = &tex {
-                        if !t.exists() {
-                            warnings.push(format!(
+                        // Textures are not read; say when one could not be.
+                        match std::fs::metadata(t) {
+                            Ok(md) if md.is_file() => {}
+                            Ok(_) => warnings.push(format!(
+                                "{}: texture {} is not a regular file (textures are not used)",
+                                mtl_path.display(),
+                                t.display()
+                            )),
+                            Err(_) => warnings.push(format!(
                                 "{}: texture {} not found (textures are not used)",
                                 mtl_path.display(),
                                 t.display()
-                            ));
+                            )),
                         }
                     }
-                    let v3 = |a: Option<[f32; 3]>, d: Vec3| {
-                        a.map(Vec3::from).filter(|v| v.is_finite()).unwrap_or(d)
-                    };
-                    let ke = m
-                        .unknown_param
-                        .get("Ke")
-                        .and_then(|s| {
-                            let v: Vec<f32> = s.split_whitespace().filter_map(|x| x.parse().ok()).collect();
-                            (v.len() == 3).then(|| Vec3::new(v[0], v[1], v[2]))
-                        })
-                        .unwrap_or(Vec3::ZERO);
-                    let mut dissolve = m.dissolve.filter(|d| d.is_finite()).unwrap_or(1.0);
-                    if let Some(tr) = m.unknown_param.get("Tr").and_then(|s| s.trim().parse::<f32>().ok()) {
-                        if m.dissolve.is_none() && tr.is_finite() {
-                            dissolve = 1.0 - tr;
-                        }
-                    }
-                    materials.push(Material {
-                        name: m.name.clone(),
-                        kd: v3(m.diffuse, Vec3::splat(0.7)),
-                        ks: v3(m.specular, Vec3::ZERO),
-                        ke,
-                        ns: m.shininess.unwrap_or(0.0),
-                        ni: m.optical_density.filter(|n| n.is_finite()).unwrap_or(1.0),
-                        dissolve: dissolve.clamp(0.0, 1.0),
-                        illum: m.illumination_model,
-                        diffuse_texture: tex,
-                    });
+                    materials.push(m.to_material(tex));
                 }
             }
             Err(e) => warnings.push(format!(
-                "{name}: material library {} not usable ({e}); using a default material",
-                mtl_path.display()
+                "{name}: material library {}: {}; using a default material",
+                mtl_path.display(),
+                match e {
+                    ReadFailure::TooLarge => format!("larger than the {} MiB limit", MAX_MTL_BYTES >> 20),
+                    e => e.to_string(),
+                }
             )),
         }
     }
@@ -311,49 +387,65 @@ pub fn load_obj_text(text: &str, path: &Path, opts: &LoadOptions) -> Result<Scen
     }
     if raw.skipped_statements > 0 {
         warnings.push(format!(
-            "{name}: skipped {} unsupported statements (lines, points, curves, ...)",
+            "{name}: skipped {} unsupported statements (curves, surfaces, ...)",
             raw.skipped_statements
         ));
     }
+    if let Some(first) = raw.first_skipped_element_line {
+        let parts: Vec<String> = [
+            (raw.short_faces, "faces with fewer than 3 corners"),
+            (raw.line_elements, "line (`l`) elements"),
+            (raw.point_elements, "point (`p`) elements"),
+        ]
+        .iter()
+        .filter(|(n, _)| *n > 0)
+        .map(|(n, what)| format!("{n} {what}"))
+        .collect();
+        warnings.push(format!("{name}: skipped {} (no surface; first at line {first})", parts.join(", ")));
+    }
 
-    // Group faces into meshes by (group, material).
+    // Group faces into meshes by (group, material), in order of first appearance.
     let mut keys: Vec<(usize, Option<String>)> = Vec::new();
+    let mut key_ids: HashMap<(usize, Option<&str>), usize> = HashMap::new();
     let mut faces_of: Vec<Vec<usize>> = Vec::new();
+    let mut keys_per_group: HashMap<usize, usize> = HashMap::new();
     for (fi, f) in raw.faces.iter().enumerate() {
-        let key = (f.group, f.material.clone());
-        let k = match keys.iter().position(|k| *k == key) {
-            Some(k) => k,
-            None => {
-                keys.push(key);
-                faces_of.push(Vec::new());
-                keys.len() - 1
-            }
-        };
+        let k = *key_ids.entry((f.group, f.material.as_deref())).or_insert_with(|| {
+            keys.push((f.group, f.material.clone()));
+            faces_of.push(Vec::new());
+            *keys_per_group.entry(f.group).or_default() += 1;
+            keys.len() - 1
+        });
         faces_of[k].push(fi);
     }
 
-    // Welding tolerance from the model size.
-    let (mut lo, mut hi) = (Vec3::splat(f32::INFINITY), Vec3::splat(f32::NEG_INFINITY));
-    for p in &raw.positions {
-        lo = lo.min(*p);
-        hi = hi.max(*p);
+    // Welding tolerance from the size of what the faces use (an unused far-away vertex must not
+    // change it); `build_mesh` caps it per vertex by the local edge lengths.
+    let (mut lo, mut hi) = (DVec3::splat(f64::INFINITY), DVec3::splat(f64::NEG_INFINITY));
+    for c in raw.faces.iter().flat_map(|f| &f.corners) {
+        let p = raw.positions[c.v as usize].as_dvec3();
+        lo = lo.min(p);
+        hi = hi.max(p);
     }
     let diag = if lo.x <= hi.x { (hi - lo).length() } else { 0.0 };
-    let tol = opts.weld_tolerance.max(0.0) * diag;
+    let tol = (opts.weld_tolerance.max(0.0) as f64 * diag).min(f32::MAX as f64) as f32;
 
     let mut meshes = Vec::new();
     let mut stats = LoadStats::default();
+    let material_ids: HashMap<&str, usize> =
+        materials.iter().enumerate().rev().map(|(i, m)| (m.name.as_str(), i)).collect();
     let mut undefined: Vec<&str> = Vec::new();
+    let mut undefined_seen: std::collections::HashSet<&str> = Default::default();
     for (k, (group, mat)) in keys.iter().enumerate() {
-        let material = mat.as_ref().and_then(|m| materials.iter().position(|x| x.name == *m));
+        let material = mat.as_deref().and_then(|m| material_ids.get(m).copied());
         if let (Some(m), None) = (mat, material) {
-            if !raw.mtllibs.is_empty() && !undefined.contains(&m.as_str()) {
+            if !raw.mtllibs.is_empty() && undefined_seen.insert(m.as_str()) {
                 undefined.push(m);
             }
         }
         let gname = raw.groups.get(*group).cloned().unwrap_or_default();
         let mname = if gname.is_empty() { format!("mesh{}", meshes.len()) } else { gname };
-        let mname = match (keys.iter().filter(|(g, _)| g == group).count() > 1, mat) {
+        let mname = match (keys_per_group[group] > 1, mat) {
             (true, Some(m)) => format!("{mname}/{m}"),
             _ => mname,
         };
@@ -364,14 +456,24 @@ pub fn load_obj_text(text: &str, path: &Path, opts: &LoadOptions) -> Result<Scen
     }
     if !undefined.is_empty() {
         warnings.push(format!(
-            "{name}: {} materials not defined (e.g. {:?}); using a default material",
+            "{name}: {} materials not defined (e.g. {}); using a default material",
             undefined.len(),
-            undefined[0]
+            cut_token(undefined[0])
         ));
     }
     if stats.degenerate_skipped > 0 {
-        warnings
-            .push(format!("{name}: skipped {} degenerate (zero-area) triangles", stats.degenerate_skipped));
+        let total = stats.degenerate_skipped + meshes.iter().map(|m: &Mesh| m.indices.len()).sum::<usize>();
+        let share = stats.degenerate_skipped as f64 / total as f64;
+        // More than a few: say so loudly, with the share (the file itself is suspect).
+        let loud = if stats.degenerate_skipped > 16 && share > 0.01 {
+            format!(" of {total} ({:.1}%): the file's geometry looks broken", 100.0 * share)
+        } else {
+            String::new()
+        };
+        warnings.push(format!(
+            "{name}: skipped {} degenerate (zero-area) triangles{loud}",
+            stats.degenerate_skipped
+        ));
     }
     if stats.zero_normals_replaced > 0 {
         warnings.push(format!(
@@ -392,9 +494,11 @@ pub fn load_obj_text(text: &str, path: &Path, opts: &LoadOptions) -> Result<Scen
     Ok(scene)
 }
 
-/// Weld positions within `tol` using a hash grid; returns a position id per input position
-/// (ids index the first position of each cluster).
-fn weld(points: &[Vec3], tol: f32) -> Vec<u32> {
+/// Weld positions using a hash grid of cell `tol`; returns a position id per input position
+/// (ids index the first position of each cluster). Two positions weld when their distance is at
+/// most `tol` and at most both of their `caps` (a tenth of each one's shortest incident edge, so
+/// no triangle with a non-zero edge can lose a corner: see `build_mesh`).
+fn weld(points: &[Vec3], caps: &[f64], tol: f32) -> Vec<u32> {
     if tol <= 0.0 {
         // Exact welding on bit patterns (+0 and -0 equal).
         let mut map: HashMap<[u32; 3], u32> = HashMap::with_capacity(points.len());
@@ -404,18 +508,25 @@ fn weld(points: &[Vec3], tol: f32) -> Vec<u32> {
             .map(|(i, p)| *map.entry((*p + Vec3::ZERO).to_array().map(f32::to_bits)).or_insert(i as u32))
             .collect();
     }
-    let cell = |p: Vec3| ((p.x / tol).floor() as i64, (p.y / tol).floor() as i64, (p.z / tol).floor() as i64);
+    let tol = tol as f64;
+    let cell = |p: Vec3| {
+        let q = p.as_dvec3() / tol;
+        (q.x.floor() as i64, q.y.floor() as i64, q.z.floor() as i64)
+    };
     let mut grid: HashMap<(i64, i64, i64), Vec<u32>> = HashMap::with_capacity(points.len());
     let mut ids = Vec::with_capacity(points.len());
     for (i, p) in points.iter().enumerate() {
         let c = cell(*p);
+        let ti = tol.min(caps[i]);
         let mut found = None;
         'search: for dx in -1..=1 {
             for dy in -1..=1 {
                 for dz in -1..=1 {
-                    if let Some(list) = grid.get(&(c.0 + dx, c.1 + dy, c.2 + dz)) {
+                    let key = (c.0.saturating_add(dx), c.1.saturating_add(dy), c.2.saturating_add(dz));
+                    if let Some(list) = grid.get(&key) {
                         for &j in list {
-                            if points[j as usize].distance(*p) <= tol {
+                            let d = points[j as usize].as_dvec3().distance(p.as_dvec3());
+                            if d <= ti.min(caps[j as usize]) {
                                 found = Some(ids[j as usize]);
                                 break 'search;
                             }
@@ -435,8 +546,9 @@ fn weld(points: &[Vec3], tol: f32) -> Vec<u32> {
 
 fn angle_at(a: Vec3, b: Vec3, c: Vec3) -> f32 {
     // The interior angle at `a` of triangle (a, b, c), robust for small angles.
-    let (u, v) = (b - a, c - a);
-    u.cross(v).length().atan2(u.dot(v))
+    // In f64, so huge coordinates cannot overflow into a NaN weight.
+    let (u, v) = (b.as_dvec3() - a.as_dvec3(), c.as_dvec3() - a.as_dvec3());
+    u.cross(v).length().atan2(u.dot(v)) as f32
 }
 
 /// Build one mesh from polygons: triangulate, weld, assign normals, classify edges.
@@ -467,7 +579,22 @@ fn build_mesh(
         u
     };
     let pts: Vec<Vec3> = used.iter().map(|&v| raw.positions[v as usize]).collect();
-    let wid = weld(&pts, tol);
+    // Per position, a tenth of its shortest non-zero incident edge: welding moves no corner
+    // farther than that, so corners a and b of an edge of length L never meet
+    // (|a - b| <= cap_a + cap_b <= 0.2 L), and welding never collapses a triangle.
+    let slot = |v: u32| used.binary_search(&v).unwrap_or(0);
+    let mut caps = vec![f64::INFINITY; used.len()];
+    for t in &tri_corners {
+        for k in 0..3 {
+            let (a, b) = (slot(t[k].v), slot(t[(k + 1) % 3].v));
+            let len = pts[a].as_dvec3().distance(pts[b].as_dvec3());
+            if len > 0.0 {
+                caps[a] = caps[a].min(0.1 * len);
+                caps[b] = caps[b].min(0.1 * len);
+            }
+        }
+    }
+    let wid = weld(&pts, &caps, tol);
     let local = |v: u32| -> u32 { wid[used.binary_search(&v).unwrap_or(0)] };
     let wpos = |pid: u32| pts[pid as usize];
 
@@ -477,7 +604,8 @@ fn build_mesh(
     let mut tris: Vec<Tri> = Vec::new();
     for (t, s) in tri_corners.iter().zip(&tri_smooth) {
         let pid = t.map(|c| local(c.v));
-        let (a, b, c) = (wpos(pid[0]), wpos(pid[1]), wpos(pid[2]));
+        let (a, b, c) = (wpos(pid[0]).as_dvec3(), wpos(pid[1]).as_dvec3(), wpos(pid[2]).as_dvec3());
+        // In f64: the cross product of finite f32 coordinates cannot overflow there.
         let area2 = (b - a).cross(c - a).length();
         if pid[0] == pid[1] || pid[1] == pid[2] || pid[0] == pid[2] || !(area2 > 0.0) {
             stats.degenerate_skipped += 1;
@@ -501,7 +629,10 @@ fn build_mesh(
     // Face normals and corner angles, for computed normals.
     let face_n: Vec<Vec3> = tris
         .iter()
-        .map(|(p, _, _)| (wpos(p[1]) - wpos(p[0])).cross(wpos(p[2]) - wpos(p[0])).normalize_or_zero())
+        .map(|(p, _, _)| {
+            let [a, b, c] = p.map(|q| wpos(q).as_dvec3());
+            (b - a).cross(c - a).normalize_or_zero().as_vec3()
+        })
         .collect();
     let mut incident: HashMap<u32, Vec<(usize, usize)>> = HashMap::new();
     for (ti, (p, _, _)) in tris.iter().enumerate() {
@@ -534,15 +665,27 @@ fn build_mesh(
             }
             x
         }
-        for a in 0..m {
-            for b in a + 1..m {
-                let ((ta, _), (tb, _)) = (list[a], list[b]);
-                let pa = &tris[ta].0;
-                let pb = &tris[tb].0;
-                let shares_edge = pa.iter().any(|&q| q != pid && pb.contains(&q));
-                if shares_edge && joins(ta, tb) {
-                    let (ra, rb) = (find(&mut parent, a), find(&mut parent, b));
-                    parent[ra] = rb;
+        // Faces that share an edge at this position share its other end `q`: group the corners
+        // by `q` (linear, where comparing all pairs would be quadratic in the valence, and a
+        // hostile fan has 100k triangles around one vertex).
+        let mut by_other: HashMap<u32, Vec<usize>> = HashMap::new();
+        for (e, &(t, _)) in list.iter().enumerate() {
+            for &q in tris[t].0.iter().filter(|&&q| q != pid) {
+                by_other.entry(q).or_default().push(e);
+            }
+        }
+        for group in by_other.values() {
+            // A manifold edge has 2 faces; a non-manifold one may have many: all pairs up to 64,
+            // then neighbours in order only (bounded work).
+            let all_pairs = group.len() <= 64;
+            for i in 0..group.len() {
+                let last = if all_pairs { group.len() } else { (i + 2).min(group.len()) };
+                for j in i + 1..last {
+                    let (a, b) = (group[i], group[j]);
+                    if joins(list[a].0, list[b].0) {
+                        let (ra, rb) = (find(&mut parent, a), find(&mut parent, b));
+                        parent[ra] = rb;
+                    }
                 }
             }
         }

@@ -1,15 +1,16 @@
-//! A Wavefront OBJ geometry parser of our own (MTL files go to `tobj::load_mtl`).
+//! A Wavefront OBJ geometry parser of our own (MTL files go to [`super::mtl`]).
 //!
 //! Why not `tobj` for the geometry: it fan-triangulates (wrong for concave polygons), ignores
 //! smoothing groups (`s`), and its errors carry no line number. This parser reads `v`, `vn`, `vt`,
 //! `f` (with `v`, `v/vt`, `v//vn`, `v/vt/vn`, negative indices), `o`, `g`, `usemtl`, `mtllib`, `s`
 //! and `\` line continuations; other statements (`l`, `p`, curves) are counted and skipped.
 
+use std::collections::HashMap;
 use std::path::{Path, PathBuf};
 
-use glam::Vec3;
+use glam::{DVec3, Vec3};
 
-use super::SceneError;
+use super::{cut_token, SceneError};
 
 /// One polygon corner: position index and optional normal index (0-based, resolved).
 #[derive(Clone, Copy, Debug, PartialEq, Eq)]
@@ -40,7 +41,15 @@ pub struct RawObj {
     /// Object/group names in order of appearance (index 0 = "" before any `o`/`g`).
     pub groups: Vec<String>,
     pub mtllibs: Vec<String>,
+    /// Statements skipped as unsupported (curves, surfaces, ...).
     pub skipped_statements: usize,
+    /// `f` lines with fewer than 3 corners, skipped (as tinyobjloader and Blender do).
+    pub short_faces: usize,
+    /// `l` (line) and `p` (point) elements, skipped: they have no surface.
+    pub line_elements: usize,
+    pub point_elements: usize,
+    /// The first skipped element's line, for the warning.
+    pub first_skipped_element_line: Option<usize>,
     pub usemtl_without_mtllib: bool,
 }
 
@@ -59,10 +68,11 @@ fn parse_floats<const N: usize>(
     }
     let mut out = [0.0f32; N];
     for (i, a) in args.iter().take(N).enumerate() {
-        let x: f32 =
-            a.parse().map_err(|_| malformed(path, line, format!("`{what}`: {a:?} is not a number")))?;
+        let x: f32 = a
+            .parse()
+            .map_err(|_| malformed(path, line, format!("`{what}`: {} is not a number", cut_token(a))))?;
         if !x.is_finite() {
-            return Err(SceneError::NonFinite { path: path.to_path_buf(), line, value: a.to_string() });
+            return Err(SceneError::NonFinite { path: path.to_path_buf(), line, value: cut_token(a) });
         }
         out[i] = x;
     }
@@ -71,8 +81,9 @@ fn parse_floats<const N: usize>(
 
 /// Resolve a 1-based (or negative, relative) OBJ index against `count` elements so far.
 fn resolve(path: &Path, line: usize, kind: &str, tok: &str, count: usize) -> Result<u32, SceneError> {
-    let i: i64 =
-        tok.parse().map_err(|_| malformed(path, line, format!("{kind} index {tok:?} is not an integer")))?;
+    let i: i64 = tok
+        .parse()
+        .map_err(|_| malformed(path, line, format!("{kind} index {} is not an integer", cut_token(tok))))?;
     let r = if i > 0 { i - 1 } else { count as i64 + i };
     if i == 0 || r < 0 || r >= count as i64 {
         return Err(SceneError::IndexOutOfRange {
@@ -86,9 +97,11 @@ fn resolve(path: &Path, line: usize, kind: &str, tok: &str, count: usize) -> Res
     Ok(r as u32)
 }
 
-/// Parse OBJ text; `path` is for messages only.
+/// Parse OBJ text; `path` is for messages only. A leading UTF-8 byte-order mark is ignored.
 pub fn parse(text: &str, path: &Path) -> Result<RawObj, SceneError> {
+    let text = text.strip_prefix('\u{feff}').unwrap_or(text);
     let mut obj = RawObj { groups: vec![String::new()], ..Default::default() };
+    let mut group_ids: HashMap<String, usize> = HashMap::from([(String::new(), 0)]);
     let mut texcoords = 0usize;
     let mut group = 0usize;
     let mut material: Option<String> = None;
@@ -132,14 +145,16 @@ pub fn parse(text: &str, path: &Path) -> Result<RawObj, SceneError> {
                 }
                 texcoords += 1;
             }
-            "f" => {
-                if args.len() < 3 {
-                    return Err(malformed(
-                        path,
-                        line,
-                        format!("a face needs at least 3 corners, found {}", args.len()),
-                    ));
+            "f" | "l" | "p" if args.len() < 3 || kw != "f" => {
+                // No surface: skipped, counted for one warning.
+                match kw {
+                    "f" => obj.short_faces += 1,
+                    "l" => obj.line_elements += 1,
+                    _ => obj.point_elements += 1,
                 }
+                obj.first_skipped_element_line.get_or_insert(line);
+            }
+            "f" => {
                 let mut corners = Vec::with_capacity(args.len());
                 for a in &args {
                     let mut parts = a.split('/');
@@ -150,7 +165,7 @@ pub fn parse(text: &str, path: &Path) -> Result<RawObj, SceneError> {
                         return Err(malformed(
                             path,
                             line,
-                            format!("face corner {a:?} has more than 3 parts"),
+                            format!("face corner {} has more than 3 parts", cut_token(a)),
                         ));
                     }
                     let v = resolve(path, line, "vertex", v, obj.positions.len())?;
@@ -167,13 +182,10 @@ pub fn parse(text: &str, path: &Path) -> Result<RawObj, SceneError> {
             }
             "o" | "g" => {
                 let name = args.join(" ");
-                group = match obj.groups.iter().position(|g| *g == name) {
-                    Some(k) => k,
-                    None => {
-                        obj.groups.push(name);
-                        obj.groups.len() - 1
-                    }
-                };
+                group = *group_ids.entry(name).or_insert_with_key(|name| {
+                    obj.groups.push(name.clone());
+                    obj.groups.len() - 1
+                });
             }
             "usemtl" => {
                 material = Some(args.join(" "));
@@ -202,6 +214,11 @@ pub fn resolve_file(dir: &Path, written: &str) -> PathBuf {
 /// Triangulate a simple polygon (convex or concave) by ear clipping in its best-fit plane
 /// (Newell's normal). Returns corner-index triples; falls back to a fan when no ear is found
 /// (self-intersecting input), so every polygon yields `n - 2` triangles.
+///
+/// Near-linear for real polygons: the corners form a linked ring that is walked once around
+/// (not rescanned from the start after each ear), and the "no corner inside the ear" test only
+/// looks at reflex corners (the only ones that can be inside) in a uniform grid's cells under the
+/// ear's bounding box; walking on past each ear keeps corner valences small.
 pub fn triangulate(points: &[Vec3]) -> Vec<[usize; 3]> {
     let n = points.len();
     if n < 3 {
@@ -210,11 +227,11 @@ pub fn triangulate(points: &[Vec3]) -> Vec<[usize; 3]> {
     if n == 3 {
         return vec![[0, 1, 2]];
     }
-    // Newell normal and a 2D projection dropping its largest axis.
-    let mut nrm = Vec3::ZERO;
+    // Compute the Newell normal and a 2D projection dropping its largest axis.
+    let mut nrm = DVec3::ZERO;
     for i in 0..n {
-        let (a, b) = (points[i], points[(i + 1) % n]);
-        nrm += Vec3::new((a.y - b.y) * (a.z + b.z), (a.z - b.z) * (a.x + b.x), (a.x - b.x) * (a.y + b.y));
+        let (a, b) = (points[i].as_dvec3(), points[(i + 1) % n].as_dvec3());
+        nrm += DVec3::new((a.y - b.y) * (a.z + b.z), (a.z - b.z) * (a.x + b.x), (a.x - b.x) * (a.y + b.y));
     }
     let ax = nrm.abs();
     let (i0, i1) = if ax.x >= ax.y && ax.x >= ax.z {
@@ -232,44 +249,122 @@ pub fn triangulate(points: &[Vec3]) -> Vec<[usize; 3]> {
         let (cx, cy) = p2[c];
         ((bx - ax) * (cy - ay) - (by - ay) * (cx - ax)) * sign
     };
-    let mut idx: Vec<usize> = (0..n).collect();
+
+    // Compute the ring and the reflex (or flat) corners.
+    let mut next: Vec<usize> = (0..n).map(|i| (i + 1) % n).collect();
+    let mut prev: Vec<usize> = (0..n).map(|i| (i + n - 1) % n).collect();
+    let mut reflex: Vec<bool> = (0..n).map(|i| cross(prev[i], i, next[i]) <= 0.0).collect();
+    let grid = ReflexGrid::new(&p2, &reflex);
+    let mut grid = grid;
+
     let mut tris = Vec::with_capacity(n - 2);
-    let mut guard = 0;
-    while idx.len() > 3 && guard < 4 * n * n {
-        guard += 1;
-        let m = idx.len();
-        let mut clipped = false;
-        for k in 0..m {
-            let (a, b, c) = (idx[(k + m - 1) % m], idx[k], idx[(k + 1) % m]);
-            if cross(a, b, c) <= 0.0 {
-                continue; // reflex or degenerate corner
-            }
-            // No other remaining vertex inside (or on) the ear.
-            let inside = idx.iter().any(|&q| {
-                if q == a || q == b || q == c || p2[q] == p2[a] || p2[q] == p2[b] || p2[q] == p2[c] {
+    let (mut remaining, mut cur, mut misses) = (n, 0usize, 0usize);
+    while remaining > 3 {
+        let (a, b, c) = (prev[cur], cur, next[cur]);
+        let is_ear = !reflex[b] && {
+            // No remaining reflex corner inside (or on) the ear, except copies of its corners.
+            let (lo, hi) = bbox3(p2[a], p2[b], p2[c]);
+            !grid.any_in(lo, hi, |q| {
+                if !reflex[q]
+                    || q == a
+                    || q == b
+                    || q == c
+                    || p2[q] == p2[a]
+                    || p2[q] == p2[b]
+                    || p2[q] == p2[c]
+                {
                     return false;
                 }
                 cross(a, b, q) >= 0.0 && cross(b, c, q) >= 0.0 && cross(c, a, q) >= 0.0
-            });
-            if inside {
-                continue;
+            })
+        };
+        if !is_ear {
+            cur = next[cur];
+            misses += 1;
+            if misses > remaining {
+                break; // a whole turn without an ear
             }
-            tris.push([a, b, c]);
-            idx.remove(k);
-            clipped = true;
-            break;
+            continue;
         }
-        if !clipped {
-            break;
+        tris.push([a, b, c]);
+        next[a] = c;
+        prev[c] = a;
+        remaining -= 1;
+        misses = 0;
+        // Clipping changes the corners at a and c only; a corner that turns reflex (possible in
+        // a self-intersecting polygon) goes back into the grid.
+        for q in [a, c] {
+            let r = cross(prev[q], q, next[q]) <= 0.0;
+            if r && !reflex[q] {
+                grid.insert(q, p2[q]);
+            }
+            reflex[q] = r;
         }
+        // Go on past the ear (as earcut does): clipping around the ring, not back at `a`, gives
+        // strips rather than a fan of every triangle around one corner.
+        cur = next[c];
     }
-    if idx.len() == 3 {
-        tris.push([idx[0], idx[1], idx[2]]);
-    } else {
-        // No ear: a self-intersecting or degenerate polygon. Fan the rest.
-        for k in 1..idx.len() - 1 {
-            tris.push([idx[0], idx[k], idx[k + 1]]);
-        }
+    // Three corners left: the last triangle; else (no ear: a self-intersecting or degenerate
+    // polygon) fan the rest.
+    let mut k = next[cur];
+    for _ in 0..remaining - 2 {
+        tris.push([cur, k, next[k]]);
+        k = next[k];
     }
     tris
+}
+
+fn bbox3(a: (f64, f64), b: (f64, f64), c: (f64, f64)) -> ((f64, f64), (f64, f64)) {
+    ((a.0.min(b.0).min(c.0), a.1.min(b.1).min(c.1)), (a.0.max(b.0).max(c.0), a.1.max(b.1).max(c.1)))
+}
+
+/// Reflex corners in a uniform grid of about one cell per corner over the polygon's bounds.
+/// Entries are never removed: a corner that turns convex is skipped by the caller's test.
+struct ReflexGrid {
+    lo: (f64, f64),
+    inv: (f64, f64),
+    dims: (usize, usize),
+    cells: Vec<Vec<u32>>,
+}
+
+impl ReflexGrid {
+    fn new(p2: &[(f64, f64)], reflex: &[bool]) -> ReflexGrid {
+        let mut lo = (f64::INFINITY, f64::INFINITY);
+        let mut hi = (f64::NEG_INFINITY, f64::NEG_INFINITY);
+        for p in p2 {
+            lo = (lo.0.min(p.0), lo.1.min(p.1));
+            hi = (hi.0.max(p.0), hi.1.max(p.1));
+        }
+        // About one cell per corner, near-square cells (at most 2^20 cells).
+        let ext = ((hi.0 - lo.0).max(f64::MIN_POSITIVE), (hi.1 - lo.1).max(f64::MIN_POSITIVE));
+        let cells = (p2.len() as f64).min((1 << 20) as f64);
+        let aspect = (ext.0 / ext.1).clamp(1.0 / cells, cells);
+        let nx = ((cells * aspect).sqrt().ceil() as usize).clamp(1, 1 << 20);
+        let ny = ((cells / nx as f64).ceil() as usize).clamp(1, 1 << 20);
+        let inv = (nx as f64 / ext.0, ny as f64 / ext.1);
+        let mut g = ReflexGrid { lo, inv, dims: (nx, ny), cells: vec![Vec::new(); nx * ny] };
+        for (i, p) in p2.iter().enumerate() {
+            if reflex[i] {
+                g.insert(i, *p);
+            }
+        }
+        g
+    }
+
+    fn cell(&self, p: (f64, f64)) -> (usize, usize) {
+        let f = |x: f64, lo: f64, inv: f64, d: usize| (((x - lo) * inv) as usize).min(d - 1);
+        (f(p.0, self.lo.0, self.inv.0, self.dims.0), f(p.1, self.lo.1, self.inv.1, self.dims.1))
+    }
+
+    fn insert(&mut self, i: usize, p: (f64, f64)) {
+        let (x, y) = self.cell(p);
+        self.cells[y * self.dims.0 + x].push(i as u32);
+    }
+
+    /// Whether `hit` holds for an entry in a cell under the box `[lo, hi]`.
+    fn any_in(&self, lo: (f64, f64), hi: (f64, f64), mut hit: impl FnMut(usize) -> bool) -> bool {
+        let (x0, y0) = self.cell(lo);
+        let (x1, y1) = self.cell(hi);
+        (y0..=y1).any(|y| (x0..=x1).any(|x| self.cells[y * self.dims.0 + x].iter().any(|&q| hit(q as usize))))
+    }
 }

@@ -107,6 +107,8 @@ fn render_cmd(args: RenderArgs) -> anyhow::Result<()> {
         let sf = args.scene_file.as_deref().map(SceneFile::load).transpose()?;
         (args.scene.clone(), sf)
     };
+    // The scene file's path, for messages.
+    let sf_path = if is_toml { args.scene.clone() } else { args.scene_file.clone().unwrap_or_default() };
     let crease = sf.as_ref().and_then(|s| s.crease_angle).unwrap_or(args.load.crease_angle);
     let input = load(&obj_path, &load_options(crease)?)?;
     let overrides: Vec<(String, ObjectMode)> =
@@ -117,6 +119,9 @@ fn render_cmd(args: RenderArgs) -> anyhow::Result<()> {
             "--object {name:?}: no such object (objects: {})",
             input.meshes.iter().map(|m| m.name.as_str()).collect::<Vec<_>>().join(", ")
         );
+    }
+    if let Some(sf) = &sf {
+        sf.check_object_names(&sf_path, input.meshes.iter().map(|m| m.name.as_str()))?;
     }
     let default_mode = match args.mode {
         Mode::Flat => ObjectMode::Flat,
@@ -190,18 +195,24 @@ fn render_cmd(args: RenderArgs) -> anyhow::Result<()> {
         }
         Ok(world)
     };
-    let camera_for = |world: &World| {
+    let camera_for = |world: &World| -> anyhow::Result<Camera> {
         let mut camera = Camera::frame_bounds(world.bounds.0, world.bounds.1, width as f32 / height as f32);
+        // Where each setting came from, for the message when they do not make a camera.
+        let mut from = ["automatic framing".to_string(), "automatic framing".into(), "default".into()];
+        let in_file = |key: &str| format!("{} camera.{key}", sf_path.display());
         if let Some(sf) = &sf {
             let c = &sf.camera;
             if let Some(e) = c.eye {
                 camera.eye = Vec3::from(e);
+                from[0] = in_file("eye");
             }
             if let Some(l) = c.look_at {
                 camera.look_at = Vec3::from(l);
+                from[1] = in_file("look_at");
             }
             if let Some(u) = c.up {
                 camera.up = Vec3::from(u);
+                from[2] = in_file("up");
             }
             if let Some(f) = c.fov {
                 camera.fov_y_deg = f;
@@ -209,17 +220,34 @@ fn render_cmd(args: RenderArgs) -> anyhow::Result<()> {
         }
         if let Some(e) = args.camera.eye {
             camera.eye = e;
+            from[0] = "--eye".into();
         }
         if let Some(l) = args.camera.look_at {
             camera.look_at = l;
+            from[1] = "--look-at".into();
         }
         if let Some(u) = args.camera.up {
             camera.up = u;
+            from[2] = "--up".into();
         }
         if let Some(f) = args.camera.fov {
             camera.fov_y_deg = f;
         }
-        camera
+        // (A zero image size makes the framing infinite; render() refuses that size itself.)
+        if let Some(p) = camera.problem().filter(|_| width > 0 && height > 0) {
+            let src = match p {
+                render::CameraProblem::EyeAtLookAt(_) | render::CameraProblem::NonFinite { .. } => {
+                    format!("eye from {}, look_at from {}", from[0], from[1])
+                }
+                render::CameraProblem::UpParallel { .. } => {
+                    format!("up from {}, eye from {}, look_at from {}", from[2], from[0], from[1])
+                }
+                render::CameraProblem::Fov(_) if args.camera.fov.is_some() => "--fov".into(),
+                render::CameraProblem::Fov(_) => in_file("fov"),
+            };
+            bail!("camera: {p} ({src})");
+        }
+        Ok(camera)
     };
 
     if args.compare {
@@ -230,7 +258,7 @@ fn render_cmd(args: RenderArgs) -> anyhow::Result<()> {
         let flat = build(Some(ObjectMode::Flat))?;
         let phong = build(Some(ObjectMode::Phong { alpha }))?;
         eprintln!("phongrt: {}", phong.effects());
-        let camera = camera_for(&flat);
+        let camera = camera_for(&flat)?;
         let a = render::render(&flat, &camera, &settings)?;
         report("flat", &a);
         let b = render::render(&phong, &camera, &settings)?;
@@ -249,7 +277,7 @@ fn render_cmd(args: RenderArgs) -> anyhow::Result<()> {
 
     let world = build(None)?;
     eprintln!("phongrt: {}", world.effects());
-    let camera = camera_for(&world);
+    let camera = camera_for(&world)?;
     let out = render::render(&world, &camera, &settings)?;
     out.image.save(&args.output)?;
     report(&args.output.display().to_string(), &out);

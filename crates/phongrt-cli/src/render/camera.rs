@@ -52,6 +52,43 @@ impl Camera {
     }
 }
 
+/// Why a camera cannot make an image; displays naming the settings involved (`eye`,
+/// `look_at`, `up`, `fov`), for the caller to say where each came from.
+#[derive(Clone, Copy, Debug, PartialEq, thiserror::Error)]
+pub enum CameraProblem {
+    #[error("eye and look_at are both {0:?}: the view direction is undefined")]
+    EyeAtLookAt([f32; 3]),
+    #[error("up {up:?} is zero or parallel to the view direction look_at - eye = {dir:?}")]
+    UpParallel { up: [f32; 3], dir: [f32; 3] },
+    #[error("fov {0} is not in (0, 180) degrees")]
+    Fov(f32),
+    #[error("eye {eye:?} or look_at {look_at:?} is not finite (scene bounds too large?)")]
+    NonFinite { eye: [f32; 3], look_at: [f32; 3] },
+}
+
+impl Camera {
+    /// What is wrong with this camera, if anything (`frame` returns `None` exactly then, for a
+    /// positive finite aspect ratio).
+    pub fn problem(&self) -> Option<CameraProblem> {
+        if !(self.eye.is_finite() && self.look_at.is_finite()) {
+            return Some(CameraProblem::NonFinite { eye: self.eye.into(), look_at: self.look_at.into() });
+        }
+        let Some(forward) = (self.look_at - self.eye).try_normalize() else {
+            return Some(CameraProblem::EyeAtLookAt(self.eye.into()));
+        };
+        if forward.cross(self.up).try_normalize().is_none() {
+            return Some(CameraProblem::UpParallel {
+                up: self.up.into(),
+                dir: (self.look_at - self.eye).into(),
+            });
+        }
+        if !(self.fov_y_deg > 0.0 && self.fov_y_deg < 180.0) {
+            return Some(CameraProblem::Fov(self.fov_y_deg));
+        }
+        None
+    }
+}
+
 impl CameraFrame {
     /// The direction (not normalised) through the image point `(x, y)` in pixels, with
     /// `(0, 0)` the top-left corner of the image.

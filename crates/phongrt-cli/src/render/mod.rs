@@ -15,7 +15,7 @@ use std::time::{Duration, Instant};
 use glam::Vec3;
 use rayon::prelude::*;
 
-pub use camera::{Camera, CameraFrame};
+pub use camera::{Camera, CameraFrame, CameraProblem};
 pub use image_out::{linear_to_srgb, Image};
 pub use world::{
     AmbientOcclusion, Effects, Ground, Light, ObjectMode, ObjectSettings, Rng, Surface, Terminator, World,

@@ -30,11 +30,17 @@ use std::path::{Path, PathBuf};
 use glam::Vec3;
 use serde::Deserialize;
 
+use phongrt::scene::ReadFailure;
+
+/// The most a scene file may hold (16 MiB).
+pub const MAX_SCENE_FILE_BYTES: u64 = 16 << 20;
+
 /// Errors in a scene file: each names the file, the key and what is wrong.
 #[derive(Debug, thiserror::Error)]
 pub enum SceneFileError {
-    #[error("{path}: cannot read: {source}")]
-    Io { path: PathBuf, source: std::io::Error },
+    /// The cause is part of the message (not also a `source()`, so a chain prints it once).
+    #[error("{path}: cannot read: {reason}")]
+    Io { path: PathBuf, reason: String },
     #[error("{path}: {message}")]
     Parse { path: PathBuf, message: String },
     #[error("{path}: {key}: {message}")]
@@ -74,8 +80,11 @@ pub struct GroundSection {
 #[derive(Debug, Default, Deserialize, Clone, PartialEq)]
 #[serde(deny_unknown_fields)]
 pub struct CameraSection {
+    #[serde(default, deserialize_with = "opt_vec3")]
     pub eye: Option<[f32; 3]>,
+    #[serde(default, deserialize_with = "opt_vec3")]
     pub look_at: Option<[f32; 3]>,
+    #[serde(default, deserialize_with = "opt_vec3")]
     pub up: Option<[f32; 3]>,
     pub fov: Option<f32>,
 }
@@ -87,7 +96,9 @@ pub struct RenderSection {
     pub height: Option<u32>,
     pub spp: Option<u32>,
     pub max_depth: Option<u32>,
+    #[serde(default, deserialize_with = "opt_vec3")]
     pub background: Option<[f32; 3]>,
+    #[serde(default, deserialize_with = "opt_vec3")]
     pub ambient: Option<[f32; 3]>,
     /// Shading normal of Phong surfaces: "adapted" (default), "paper" or "interpolated".
     pub shading: Option<String>,
@@ -99,27 +110,43 @@ pub struct RenderSection {
 #[serde(deny_unknown_fields, tag = "type", rename_all = "lowercase")]
 pub enum LightSection {
     Directional {
+        #[serde(deserialize_with = "vec3")]
         direction: [f32; 3],
-        #[serde(default = "one3")]
+        #[serde(default = "one3", deserialize_with = "vec3")]
         radiance: [f32; 3],
         #[serde(default = "yes")]
         shadows: bool,
     },
     Point {
+        #[serde(deserialize_with = "vec3")]
         position: [f32; 3],
-        #[serde(default = "one3")]
+        #[serde(default = "one3", deserialize_with = "vec3")]
         intensity: [f32; 3],
         #[serde(default = "yes")]
         shadows: bool,
     },
     Sphere {
+        #[serde(deserialize_with = "vec3")]
         center: [f32; 3],
         radius: f32,
-        #[serde(default = "one3")]
+        #[serde(default = "one3", deserialize_with = "vec3")]
         intensity: [f32; 3],
         #[serde(default = "sixteen")]
         samples: u32,
     },
+}
+
+/// Exactly three numbers: serde's `[f32; 3]` reads the first three of a longer array and drops
+/// the rest without a word (`eye = [1, 2, 3, 4]`).
+fn vec3<'de, D: serde::Deserializer<'de>>(d: D) -> Result<[f32; 3], D::Error> {
+    let v: Vec<f32> = Vec::deserialize(d)?;
+    <[f32; 3]>::try_from(v.as_slice()).map_err(|_| {
+        serde::de::Error::custom(format!("expected an array of 3 numbers, found {} numbers", v.len()))
+    })
+}
+
+fn opt_vec3<'de, D: serde::Deserializer<'de>>(d: D) -> Result<Option<[f32; 3]>, D::Error> {
+    vec3(d).map(Some)
 }
 
 fn one3() -> [f32; 3] {
@@ -146,7 +173,9 @@ pub struct ObjectSection {
     pub name: String,
     pub mode: Option<ModeName>,
     pub alpha: Option<f32>,
+    #[serde(default, deserialize_with = "opt_vec3")]
     pub kd: Option<[f32; 3]>,
+    #[serde(default, deserialize_with = "opt_vec3")]
     pub mirror: Option<[f32; 3]>,
     pub transmission: Option<f32>,
     pub ior: Option<f32>,
@@ -161,14 +190,52 @@ pub struct AoSection {
 
 impl SceneFile {
     /// Read and check a scene file.
+    /// Only regular files of at most [`MAX_SCENE_FILE_BYTES`] are read (a FIFO or a device is
+    /// refused before it is opened).
     pub fn load(path: &Path) -> Result<SceneFile, SceneFileError> {
-        let text = std::fs::read_to_string(path)
-            .map_err(|source| SceneFileError::Io { path: path.to_path_buf(), source })?;
+        let io = |reason: String| SceneFileError::Io { path: path.to_path_buf(), reason };
+        let bytes = phongrt::scene::read_regular_file(path, MAX_SCENE_FILE_BYTES).map_err(|e| match e {
+            ReadFailure::Io(e) => io(e.to_string()),
+            ReadFailure::NotRegular(kind) => io(format!("not a regular file ({kind})")),
+            ReadFailure::TooLarge => io(format!("larger than the {} MiB limit", MAX_SCENE_FILE_BYTES >> 20)),
+        })?;
+        let text = String::from_utf8(bytes).map_err(|e| SceneFileError::Parse {
+            path: path.to_path_buf(),
+            message: format!("not UTF-8 text (byte {})", e.utf8_error().valid_up_to()),
+        })?;
         Self::parse(&text, path)
     }
 
+    /// Check that every `[[object]]` name (other than "*") is an object of the loaded OBJ.
+    pub fn check_object_names<'a>(
+        &self,
+        path: &Path,
+        objects: impl Iterator<Item = &'a str> + Clone,
+    ) -> Result<(), SceneFileError> {
+        for (i, o) in self.objects.iter().enumerate() {
+            if o.name != "*" && !objects.clone().any(|n| n == o.name) {
+                let mut names: Vec<&str> = objects.clone().take(11).collect();
+                if names.len() > 10 {
+                    names[10] = "...";
+                }
+                return Err(SceneFileError::Invalid {
+                    path: path.to_path_buf(),
+                    key: format!("object[{i}].name"),
+                    message: format!(
+                        "{} matches no object of the OBJ (objects: {})",
+                        phongrt::scene::cut_token(&o.name),
+                        names.join(", ")
+                    ),
+                });
+            }
+        }
+        Ok(())
+    }
+
     /// Parse and check scene-file text; `path` is used in messages only.
+    /// A leading UTF-8 byte-order mark is ignored.
     pub fn parse(text: &str, path: &Path) -> Result<SceneFile, SceneFileError> {
+        let text = text.strip_prefix('\u{feff}').unwrap_or(text);
         let f: SceneFile = toml::from_str(text).map_err(|e| SceneFileError::Parse {
             path: path.to_path_buf(),
             message: one_line_toml_error(&e, text),
@@ -209,6 +276,22 @@ impl SceneFile {
         if let Some(up) = c.up {
             if Vec3::from(up).length_squared() == 0.0 {
                 return Err(bad("camera.up".into(), "must not be zero".into()));
+            }
+        }
+        // Settings that contradict each other within the file (with automatic framing the rest
+        // is checked when the camera is made).
+        if let (Some(e), Some(l)) = (c.eye, c.look_at) {
+            let dir = Vec3::from(l) - Vec3::from(e);
+            if dir.try_normalize().is_none() {
+                return Err(bad("camera.look_at".into(), format!("{l:?} equals camera.eye")));
+            }
+            if let Some(up) = c.up {
+                if dir.normalize().cross(Vec3::from(up)).try_normalize().is_none() {
+                    return Err(bad(
+                        "camera.up".into(),
+                        format!("{up:?} is parallel to the view direction (look_at - eye)"),
+                    ));
+                }
             }
         }
         if let Some(f) = c.fov {
@@ -332,13 +415,40 @@ impl SceneFile {
     }
 }
 
-/// toml's messages span several lines (with a source excerpt); keep line, column and reason.
+/// toml's messages span several lines (with a source excerpt); keep line, the key (`section.key`,
+/// found from the line the error points into) and the reason.
 fn one_line_toml_error(e: &toml::de::Error, text: &str) -> String {
     let msg = e.message().trim().replace('\n', " ");
+    let msg = if msg.len() > 200 { phongrt::scene::cut_token(&msg) } else { msg };
     match e.span() {
         Some(span) => {
-            let line = text[..span.start.min(text.len())].matches('\n').count() + 1;
-            format!("line {line}: {msg}")
+            let start = span.start.min(text.len());
+            let start = (0..=start).rev().find(|&i| text.is_char_boundary(i)).unwrap_or(0);
+            let line = text[..start].matches('\n').count() + 1;
+            let key = text.lines().nth(line - 1).and_then(|l| l.split_once('=')).map(|(k, _)| {
+                let k = k.trim().trim_matches('"');
+                // The innermost [section] or [[section]] above the line.
+                let section = text
+                    .lines()
+                    .take(line - 1)
+                    .filter_map(|l| l.trim().strip_prefix('[').and_then(|l| l.split(']').next()))
+                    .last()
+                    .map(|s| s.trim_start_matches('[').trim());
+                match section {
+                    Some(s) if !s.is_empty() => format!("{s}.{k}"),
+                    _ => k.to_string(),
+                }
+            });
+            // An error inside a `[[light]]` (internally tagged, so buffered) points at the first
+            // `[[light]]` header: name the table.
+            let key = key.or_else(|| {
+                let l = text.lines().nth(line - 1)?.trim();
+                Some(l.strip_prefix("[[")?.split("]]").next()?.trim().to_string())
+            });
+            match key {
+                Some(k) if !k.is_empty() && k.len() <= 64 => format!("line {line}: {k}: {msg}"),
+                _ => format!("line {line}: {msg}"),
+            }
         }
         None => msg,
     }

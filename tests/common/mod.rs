@@ -1,0 +1,72 @@
+//! Helpers shared by the integration tests (each test file that needs them says `mod common;`).
+#![allow(dead_code)]
+
+use std::path::{Path, PathBuf};
+use std::process::Command;
+
+/// The workspace root (this package's directory).
+pub fn root() -> PathBuf {
+    PathBuf::from(env!("CARGO_MANIFEST_DIR"))
+}
+
+/// `target/<profile>`, where cargo puts the workspace's libraries and binaries.
+pub fn target_dir() -> PathBuf {
+    // target/<profile>/deps/TEST-HASH -> target/<profile>
+    let exe = std::env::current_exe().unwrap();
+    exe.parent().and_then(|p| p.parent()).unwrap().to_path_buf()
+}
+
+/// The third-party model corpus (`../shared/corpus` beside the checkout, or `PHONGRT_CORPUS`), or
+/// `None` with a message when it is absent (a user's clone has none).
+pub fn corpus() -> Option<PathBuf> {
+    let candidates = std::env::var_os("PHONGRT_CORPUS")
+        .map(PathBuf::from)
+        .into_iter()
+        .chain([root().join("../shared/corpus"), root().join("../../shared/corpus")]);
+    for c in candidates {
+        if c.is_dir() {
+            return Some(c);
+        }
+    }
+    println!("skipped: ../shared/corpus is absent");
+    None
+}
+
+/// Compile the C program `source` against include/phongrt.h and the workspace's libphongrt.so
+/// (built by `cargo build --release -p phongrt-capi`; scripts/test.sh does) with the system C
+/// compiler, into a temporary directory that also holds the SONAME link `libphongrt.so.0` (as an
+/// install makes it). Returns the directory (keep it alive) and the program.
+pub fn compile_c(source: &Path, name: &str) -> (tempfile::TempDir, PathBuf) {
+    let lib_dir = target_dir();
+    let so = lib_dir.join("libphongrt.so");
+    assert!(
+        so.exists(),
+        "{} is missing: build it with `cargo build --release -p phongrt-capi` (scripts/test.sh does)",
+        so.display()
+    );
+    let out = tempfile::tempdir().unwrap();
+    let exe = out.path().join(name);
+    std::os::unix::fs::symlink(&so, out.path().join("libphongrt.so.0")).unwrap();
+    let emb_lib = env!("PHONGRT_EMBREE_LIB_DIR");
+    let mut c = Command::new(std::env::var("CC").unwrap_or_else(|_| "cc".into()));
+    c.args(["-std=c99", "-O1", "-g", "-Wall", "-Wextra", "-Werror", "-o"])
+        .arg(&exe)
+        .arg(source)
+        .arg(format!("-I{}", root().join("include").display()))
+        .arg(format!("-I{}", env!("PHONGRT_EMBREE_INCLUDE_DIR")))
+        .arg(format!("-L{}", lib_dir.display()))
+        .arg(format!("-Wl,-rpath,{}", out.path().display()))
+        .arg("-lphongrt");
+    if !emb_lib.is_empty() {
+        c.arg(format!("-L{emb_lib}")).arg(format!("-Wl,-rpath,{emb_lib}"));
+    }
+    c.args(["-lembree4", "-lm"]);
+    let st = c.output().expect("cannot run the C compiler");
+    assert!(
+        st.status.success(),
+        "C compile of {} failed:\n{}",
+        source.display(),
+        String::from_utf8_lossy(&st.stderr)
+    );
+    (out, exe)
+}
