@@ -569,3 +569,53 @@ fn a_patch_cast_from_f32_to_f64_is_exact() {
     assert_eq!(p64.local_bounds(), (p32.local_bounds().0.to_f64(), p32.local_bounds().1.to_f64()));
     assert_eq!(p64.prism().1, p32.prism().1.map(|h| h as f64));
 }
+
+/// A sliver seen from afar is hit in f32 where f64 hits it. The patch is triangle 22 (vertices
+/// 61, 62, 63) of the Stanford Bunny (Stanford 3D Scanning Repository, Stanford University
+/// Computer Graphics Laboratory; the 69,666-triangle OBJ of Debian's glmark2-data), with the
+/// normals phongrt's loader computes for it, at alpha 0.75: its middle corner lies 3e-5 off the
+/// line through the other two, 0.027 apart, and its edges 0 and 1 are creases (kept straight).
+/// The rays come from a camera 0.63 away (47 patch sizes) inside the closed bunny, where the f32
+/// rounding of the local ray moves the barycentric across the sliver by about 1e-3, its whole
+/// width: the f32 solvers missed it and the renderer showed the background.
+#[test]
+fn f32_hits_a_sliver_seen_from_afar() {
+    let p = [
+        DVec3::new(-0.03032130002975464, -0.9104620218276978, 0.5236639976501465),
+        DVec3::new(-0.016949400305747986, -0.909857988357544, 0.5258859992027283),
+        DVec3::new(-0.0035131899639964104, -0.9092419743537903, 0.5281220078468323),
+    ];
+    let n = [
+        DVec3::new(-0.1392839401960373, -0.3390832245349884, 0.9303884506225586),
+        DVec3::new(-0.13916198909282684, -0.3402794599533081, 0.929969847202301),
+        DVec3::new(-0.1391928791999817, -0.33997654914855957, 0.9300759434700012),
+    ];
+    let straight = [true, true, false];
+    let org = glam::Vec3::new(0.22222222, -0.440548, 0.17223267);
+    // Two pixels of `phongrt render bunny.obj --alpha 0.75 --eye 0.22222222,-0.440548,0.17223267
+    // --look-at -0.016917244,-0.90985197,0.525893 --fov 1e-5 --width 256 --height 256`.
+    let dirs = [
+        glam::Vec3::new(-0.37693208, -0.7397179, 0.5574401),
+        glam::Vec3::new(-0.37693217, -0.7397179, 0.5574401),
+    ];
+    let p64: Patch<f64> = Patch::with_straight_edges(p, n, 0.75, straight);
+    let p32: Patch<f32> = Patch::with_straight_edges(p, n, 0.75, straight);
+    for dir in dirs {
+        let want = intersect(
+            &p64,
+            V3::from(org).cast::<f64>(),
+            V3::from(dir).cast::<f64>(),
+            0.0,
+            f64::INFINITY,
+            Method::AnalyticPolished,
+        )
+        .expect("f64 hits the sliver");
+        assert!(want.u < 0.003 && (want.v - 0.5).abs() < 0.002, "f64 hit at ({}, {})", want.u, want.v);
+        for m in [Method::Certified, Method::AnalyticPolished] {
+            let h = intersect(&p32, V3::from(org), V3::from(dir), 0.0, f32::INFINITY, m)
+                .unwrap_or_else(|| panic!("{m:?} f32 misses the sliver along {dir:?}"));
+            let rel = ((h.t as f64 - want.t) / want.t).abs();
+            assert!(rel < 1e-6, "{m:?} along {dir:?}: t {} vs f64 {}", h.t, want.t);
+        }
+    }
+}
