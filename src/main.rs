@@ -957,11 +957,19 @@ fn bench_cmd(args: cli::BenchArgs) -> anyhow::Result<()> {
     );
     std::fs::write(args.out.join("bench.csv"), to_csv(&rows))?;
     std::fs::write(args.out.join("bench.md"), &md)?;
-    plot(&rows).save(&args.out.join("bench.png"))?;
-    plot_scaling(&rows).save(&args.out.join("bench-scaling.png"))?;
+    save_plot(&plot(&rows)?, &args.out.join("bench.png"))?;
+    save_plot(&plot_scaling(&rows)?, &args.out.join("bench-scaling.png"))?;
     print!("{md}");
     eprintln!("phongrt: wrote {}/bench.csv, bench.md, bench.png, bench-scaling.png", args.out.display());
     Ok(())
+}
+
+/// A plot saved as PNG through image 0.25's encoder, written with `write_atomically`.
+fn save_plot(img: &image::RgbImage, path: &Path) -> anyhow::Result<()> {
+    let mut bytes = Vec::new();
+    img.write_to(&mut std::io::Cursor::new(&mut bytes), image::ImageFormat::Png)
+        .with_context(|| format!("{}: cannot encode PNG", path.display()))?;
+    image_out::write_atomically(path, &bytes)
 }
 
 fn report(what: &str, out: &RenderOutput) {

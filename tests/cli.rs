@@ -256,8 +256,45 @@ fn bench_writes_csv_table_and_plot() {
     let md = std::fs::read_to_string(dir.path().join("bench.md")).unwrap();
     assert!(md.contains("equal-silhouette pre-tessellation") && md.contains("| sphere-"), "{md}");
     assert!(md.contains("equal-depth pre-tessellation"), "{md}");
-    assert!(image::open(dir.path().join("bench.png")).is_ok());
-    assert!(image::open(dir.path().join("bench-scaling.png")).is_ok());
+    for plot in ["bench.png", "bench-scaling.png"] {
+        let img = image::open(dir.path().join(plot)).unwrap().to_rgb8();
+        assert_eq!(img.width(), 960, "{plot}");
+        // Anti-aliased DejaVu text and lines (plotters): many grey levels, where a bitmap font
+        // draws only black on white.
+        let greys: std::collections::HashSet<u8> = img
+            .pixels()
+            .filter(|p| p[0] == p[1] && p[1] == p[2] && p[0] > 0 && p[0] < 255)
+            .map(|p| p[0])
+            .collect();
+        assert!(greys.len() > 40, "{plot}: {} grey levels", greys.len());
+    }
+}
+
+/// The --compare labels are anti-aliased DejaVu Sans on a dark box.
+#[test]
+fn compare_labels_are_drawn_in_a_real_font() {
+    let dir = tempfile::tempdir().unwrap();
+    let out = dir.path().join("c.png");
+    phongrt()
+        .args([
+            "render",
+            "scenes/sphere_lowpoly.obj",
+            "--compare",
+            "-q",
+            "--width",
+            "240",
+            "--height",
+            "180",
+            "-o",
+        ])
+        .arg(&out)
+        .assert()
+        .success();
+    let img = image::open(&out).unwrap().to_rgb8();
+    assert_eq!(img.dimensions(), (720, 180));
+    let levels: std::collections::HashSet<u8> =
+        (0..30).flat_map(|y| (0..120).map(move |x| (x, y))).map(|(x, y)| img.get_pixel(x, y)[0]).collect();
+    assert!(levels.len() > 20, "{} levels in the label", levels.len());
 }
 
 #[test]

@@ -327,10 +327,9 @@ pub fn compare_panel(left: &Image, right: &Image, left_label: &str, right_label:
         }
     }
     out.blit(&diff, 2 * w, 0);
-    let scale = (h / 200).clamp(1, 4);
-    let white = Vec3::splat(0.9);
-    text::draw_text(&mut out, left_label, 6, 6, scale, white);
-    text::draw_text(&mut out, right_label, w + 6, 6, scale, white);
-    text::draw_text(&mut out, "difference x4", 2 * w + 6, 6, scale, white);
+    let size = (h as f32 / 22.0).clamp(11.0, 40.0);
+    text::draw_label(&mut out, left_label, 6, 6, size);
+    text::draw_label(&mut out, right_label, w + 6, 6, size);
+    text::draw_label(&mut out, "difference x4", 2 * w + 6, 6, size);
     out
 }
