@@ -369,6 +369,9 @@ fn plan(args: &RenderArgs, sf: Option<&SceneFile>) -> anyhow::Result<RenderPlan>
     let plan_frames = frames;
     let format = match &output {
         Output::Stdout => {
+            if std::io::IsTerminal::is_terminal(&std::io::stdout()) {
+                usage!("-o -: stdout is a terminal; redirect it to a file or a pipe");
+            }
             if plan_frames.is_some_and(|f| f.only.is_none() && f.count > 1) {
                 usage!(
                     "-o -: {} frames cannot all go to stdout; pick one with --frame I",
