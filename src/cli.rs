@@ -34,6 +34,15 @@ pub enum Command {
     /// Measure every method (flat, pre-tessellated 1..64, direct f32/f64, Newton, user-geometry
     /// floor, Catmull-Clark) on spheres of growing size and the given OBJ files: CSV, table, plot.
     Bench(BenchArgs),
+    /// Print a shell completion script: `phongrt completions bash > /etc/bash_completion.d/phongrt`.
+    Completions(CompletionsArgs),
+}
+
+#[derive(Args, Debug)]
+pub struct CompletionsArgs {
+    /// The shell.
+    #[arg(value_enum)]
+    pub shell: clap_complete::Shell,
 }
 
 /// How surfaces are made.

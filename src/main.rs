@@ -101,6 +101,13 @@ fn run(cli: Cli) -> anyhow::Result<()> {
         Command::Info(args) => info_cmd(args),
         Command::Stitch(args) => stitch_cmd(args),
         Command::Bench(args) => bench_cmd(args),
+        Command::Completions(args) => {
+            use clap::CommandFactory;
+            let mut out = Vec::new();
+            clap_complete::generate(args.shell, &mut Cli::command(), "phongrt", &mut out);
+            let mut stdout = std::io::stdout().lock();
+            stdout.write_all(&out).and_then(|_| stdout.flush()).context("cannot write to stdout")
+        }
         Command::Accuracy(args) => {
             if args.rays == 0 {
                 usage!("--rays 0: must be at least 1");

@@ -582,3 +582,12 @@ fn info_json_parses() {
     assert!(v["embree"]["version"].as_str().unwrap().starts_with("4."));
     assert_eq!(v["meshes"].as_array().unwrap().len(), 1);
 }
+
+#[test]
+fn completions_name_the_farm_flags() {
+    phongrt()
+        .args(["completions", "bash"])
+        .assert()
+        .success()
+        .stdout(predicate::str::contains("--tile").and(predicate::str::contains("stitch")));
+}
