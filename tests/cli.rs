@@ -110,8 +110,18 @@ fn same_image_whatever_the_thread_count() {
     assert_eq!(bytes[0], bytes[2]);
 }
 
+/// Bad input (a file): exit status 1.
 fn fails_with(args: &[&str], needle: &str) {
-    let a = phongrt().args(args).assert().failure().code(1);
+    fails_with_code(args, needle, 1)
+}
+
+/// Bad usage (a flag's value): exit status 2.
+fn fails_usage(args: &[&str], needle: &str) {
+    fails_with_code(args, needle, 2)
+}
+
+fn fails_with_code(args: &[&str], needle: &str, code: i32) {
+    let a = phongrt().args(args).assert().failure().code(code);
     let err = String::from_utf8(a.get_output().stderr.clone()).unwrap();
     let lines: Vec<&str> = err.lines().filter(|l| l.starts_with("phongrt: error")).collect();
     assert_eq!(lines.len(), 1, "{err}");
@@ -139,17 +149,20 @@ fn bad_input_is_one_line_and_nonzero() {
         "n.obj:1: coordinate",
     );
     fails_with(&["render", &bad("e.obj", "# empty\n"), "-o", &out], "e.obj: no triangles");
-    fails_with(&["render", "scenes/sphere_lowpoly.obj", "--alpha", "2", "-o", &out], "--alpha 2");
-    fails_with(&["render", "scenes/sphere_lowpoly.obj", "--width", "0", "-o", &out], "image size");
-    fails_with(
+    fails_usage(&["render", "scenes/sphere_lowpoly.obj", "--alpha", "2", "-o", &out], "--alpha 2");
+    fails_usage(
+        &["render", "scenes/sphere_lowpoly.obj", "--width", "0", "-o", &out],
+        "--width 0: image size",
+    );
+    fails_usage(
         &["render", "scenes/sphere_lowpoly.obj", "--eye", "0,0,0", "--look-at", "0,0,0", "-o", &out],
         "eye and look_at are both [0.0, 0.0, 0.0]: the view direction is undefined (eye from --eye, look_at from --look-at)",
     );
-    fails_with(
+    fails_usage(
         &["render", "scenes/sphere_lowpoly.obj", "--object", "nope=flat", "-o", &out],
         "no such object",
     );
-    fails_with(
+    fails_usage(
         &["render", "scenes/sphere_lowpoly.obj", "-o", &dir.path().join("x.bmp").to_string_lossy()],
         "unknown image extension",
     );
@@ -243,8 +256,45 @@ fn bench_writes_csv_table_and_plot() {
     let md = std::fs::read_to_string(dir.path().join("bench.md")).unwrap();
     assert!(md.contains("equal-silhouette pre-tessellation") && md.contains("| sphere-"), "{md}");
     assert!(md.contains("equal-depth pre-tessellation"), "{md}");
-    assert!(image::open(dir.path().join("bench.png")).is_ok());
-    assert!(image::open(dir.path().join("bench-scaling.png")).is_ok());
+    for plot in ["bench.png", "bench-scaling.png"] {
+        let img = image::open(dir.path().join(plot)).unwrap().to_rgb8();
+        assert_eq!(img.width(), 960, "{plot}");
+        // Anti-aliased DejaVu text and lines (plotters): many grey levels, where a bitmap font
+        // draws only black on white.
+        let greys: std::collections::HashSet<u8> = img
+            .pixels()
+            .filter(|p| p[0] == p[1] && p[1] == p[2] && p[0] > 0 && p[0] < 255)
+            .map(|p| p[0])
+            .collect();
+        assert!(greys.len() > 40, "{plot}: {} grey levels", greys.len());
+    }
+}
+
+/// The --compare labels are anti-aliased DejaVu Sans on a dark box.
+#[test]
+fn compare_labels_are_drawn_in_a_real_font() {
+    let dir = tempfile::tempdir().unwrap();
+    let out = dir.path().join("c.png");
+    phongrt()
+        .args([
+            "render",
+            "scenes/sphere_lowpoly.obj",
+            "--compare",
+            "-q",
+            "--width",
+            "240",
+            "--height",
+            "180",
+            "-o",
+        ])
+        .arg(&out)
+        .assert()
+        .success();
+    let img = image::open(&out).unwrap().to_rgb8();
+    assert_eq!(img.dimensions(), (720, 180));
+    let levels: std::collections::HashSet<u8> =
+        (0..30).flat_map(|y| (0..120).map(move |x| (x, y))).map(|(x, y)| img.get_pixel(x, y)[0]).collect();
+    assert!(levels.len() > 20, "{} levels in the label", levels.len());
 }
 
 #[test]
@@ -288,4 +338,256 @@ fn bench_robust_mode_builds_and_measures() {
         .assert()
         .success()
         .stdout(predicate::str::contains("| pretess-2 |").and(predicate::str::contains("| direct-f32 |")));
+}
+
+/// The output is checked before anything is loaded or traced: no `effects:` line (printed just
+/// before rendering) and no OBJ error, since the OBJ is not even opened.
+#[test]
+fn a_bad_output_fails_before_any_work() {
+    let dir = tempfile::tempdir().unwrap();
+    for (out, code, needle) in [
+        ("/no/such/dir/x.png", 1, "directory /no/such/dir does not exist"),
+        ("x.bmp", 2, "-o x.bmp: x.bmp: unknown image extension"),
+        ("x", 2, "unknown image extension"),
+    ] {
+        let a = phongrt().args(["render", "/no/such/mesh.obj", "-o", out]).assert().failure().code(code);
+        let err = String::from_utf8(a.get_output().stderr.clone()).unwrap();
+        assert_eq!(err.lines().count(), 1, "{err}");
+        assert!(err.contains(needle), "{err}");
+        assert!(!err.contains("mesh.obj"), "{err}");
+    }
+    // A directory the process cannot write to (root can write anywhere, so only as non-root).
+    let ro = dir.path().join("ro");
+    std::fs::create_dir(&ro).unwrap();
+    let mut perm = std::fs::metadata(&ro).unwrap().permissions();
+    std::os::unix::fs::PermissionsExt::set_mode(&mut perm, 0o555);
+    std::fs::set_permissions(&ro, perm).unwrap();
+    if std::fs::write(ro.join("probe"), b"x").is_err() {
+        let a = phongrt()
+            .args(["render", "scenes/sphere_lowpoly.obj", "-o"])
+            .arg(ro.join("x.png"))
+            .assert()
+            .failure()
+            .code(1);
+        let err = String::from_utf8(a.get_output().stderr.clone()).unwrap();
+        assert!(err.contains("is not writable") && !err.contains("effects:"), "{err}");
+    }
+}
+
+#[test]
+fn a_missing_file_says_its_cause_once_and_a_wrong_type_says_so() {
+    let a = phongrt().args(["info", "/no/such/file.obj"]).assert().failure().code(1);
+    let err = String::from_utf8(a.get_output().stderr.clone()).unwrap();
+    assert_eq!(err.matches("No such file or directory").count(), 1, "{err}");
+    let dir = tempfile::tempdir().unwrap();
+    let stl = dir.path().join("x.stl");
+    std::fs::write(&stl, "solid x\nendsolid x\n").unwrap();
+    fails_with(&["info", &stl.to_string_lossy()], "x.stl: not an OBJ file (.stl)");
+}
+
+#[test]
+fn png_to_stdout_decodes() {
+    let a = phongrt()
+        .args(["render", "scenes/sphere_lowpoly.obj", "-q", "--width", "24", "--height", "16", "-o", "-"])
+        .assert()
+        .success();
+    let img = image::load_from_memory_with_format(&a.get_output().stdout, image::ImageFormat::Png).unwrap();
+    assert_eq!((img.width(), img.height()), (24, 16));
+}
+
+/// A full device: non-zero exit and one error line, never "wrote".
+#[test]
+fn a_full_device_is_an_error_not_a_success() {
+    let dir = tempfile::tempdir().unwrap();
+    let link = dir.path().join("x.png");
+    std::os::unix::fs::symlink("/dev/full", &link).unwrap();
+    let a = phongrt()
+        .args(["render", "scenes/sphere_lowpoly.obj", "-q", "--width", "24", "--height", "16", "-o"])
+        .arg(&link)
+        .assert()
+        .failure()
+        .code(1);
+    let err = String::from_utf8(a.get_output().stderr.clone()).unwrap();
+    let errors: Vec<&str> = err.lines().filter(|l| l.starts_with("phongrt: error")).collect();
+    assert_eq!(errors.len(), 1, "{err}");
+    assert!(errors[0].contains("x.png: cannot write"), "{err}");
+}
+
+/// A file-size limit: an error naming it, and the PNG already there still decodes.
+#[test]
+fn a_file_size_limit_is_an_error_and_keeps_the_old_image() {
+    let dir = tempfile::tempdir().unwrap();
+    let out = dir.path().join("x.png");
+    let bin = assert_cmd::cargo::cargo_bin("phongrt");
+    let render = |limit: &str| {
+        std::process::Command::new("sh")
+            .arg("-c")
+            .arg(format!(
+                "{limit} exec \"$0\" render scenes/sphere_lowpoly.obj -q --width 200 --height 150 -o \"$1\""
+            ))
+            .arg(&bin)
+            .arg(&out)
+            .output()
+            .unwrap()
+    };
+    assert!(render("").status.success());
+    let before = std::fs::read(&out).unwrap();
+    // One block (512 bytes, or 1024 in some shells): less than the PNG.
+    assert!(before.len() > 1024, "{} bytes", before.len());
+    let o = render("ulimit -f 1;");
+    let err = String::from_utf8_lossy(&o.stderr);
+    assert_eq!(o.status.code(), Some(1), "{err}");
+    let errors: Vec<&str> = err.lines().filter(|l| l.starts_with("phongrt: error")).collect();
+    assert_eq!(errors.len(), 1, "{err}");
+    assert!(errors[0].contains("x.png") && errors[0].contains("file-size limit"), "{err}");
+    assert!(!err.contains("panicked"), "{err}");
+    assert_eq!(std::fs::read(&out).unwrap(), before);
+    image::open(&out).unwrap();
+    assert_eq!(std::fs::read_dir(dir.path()).unwrap().count(), 1, "a temporary file was left");
+}
+
+#[test]
+fn huge_sizes_are_refused_with_the_memory_they_need() {
+    let a = phongrt()
+        .env("PHONGRT_MAX_MEMORY", "1000000000")
+        .args(["render", "/no/such/mesh.obj", "--width", "32768", "--height", "32768", "-o", "x.png"])
+        .assert()
+        .failure()
+        .code(2);
+    let err = String::from_utf8(a.get_output().stderr.clone()).unwrap();
+    assert!(err.contains("--width 32768 --height 32768: needs about 38.7 GB"), "{err}");
+    assert!(err.contains("1.0 GB available") && err.contains("--tile"), "{err}");
+}
+
+#[test]
+fn threads_beyond_the_machine_start_what_it_has_and_say_so() {
+    let cores = std::thread::available_parallelism().unwrap().get();
+    let dir = tempfile::tempdir().unwrap();
+    phongrt()
+        .args(["render", "scenes/sphere_lowpoly.obj", "-q", "--width", "16", "--height", "16", "--threads"])
+        .arg("100000")
+        .arg("-o")
+        .arg(dir.path().join("t.png"))
+        .assert()
+        .success()
+        .stderr(predicate::str::contains(format!(
+            "warning: --threads 100000: this machine has {cores} cores; using {cores}"
+        )));
+}
+
+fn scene_with(dir: &std::path::Path, extra: &str) -> String {
+    let p = dir.join("s.toml");
+    let obj = std::path::Path::new(env!("CARGO_MANIFEST_DIR")).join("scenes/sphere_lowpoly.obj");
+    std::fs::write(&p, format!("obj = {obj:?}\n{extra}")).unwrap();
+    p.to_string_lossy().into_owned()
+}
+
+/// A light too bright for f32 makes inf and NaN radiance: clamped and said, never in the image.
+#[test]
+fn a_light_too_bright_for_f32_puts_no_nan_or_inf_in_the_image() {
+    let dir = tempfile::tempdir().unwrap();
+    let s = scene_with(
+        dir.path(),
+        "[[light]]\ntype = \"point\"\nposition = [0.0, 0.0, 1.2]\nintensity = [3e38, 3e38, 3e38]\n",
+    );
+    let out = dir.path().join("b.exr");
+    phongrt()
+        .args(["render", &s, "-q", "--width", "48", "--height", "36", "-o"])
+        .arg(&out)
+        .assert()
+        .success()
+        .stderr(predicate::str::contains("not a finite f32 number"));
+    let img = image::open(&out).unwrap().to_rgb32f();
+    assert!(img.as_raw().iter().all(|v| v.is_finite()));
+    assert!(img.as_raw().iter().any(|&v| v > 1e20), "the light shows");
+}
+
+#[test]
+fn max_depth_is_bounded() {
+    let dir = tempfile::tempdir().unwrap();
+    let s = scene_with(dir.path(), "[render]\nmax_depth = 24\n");
+    fails_with(&["render", &s, "-o", "x.png"], "render.max_depth: 24 is more than 16");
+}
+
+#[test]
+fn help_shows_every_default_examples_and_exit_codes() {
+    let a = phongrt().args(["render", "--help"]).assert().success();
+    let help = String::from_utf8(a.get_output().stdout.clone()).unwrap();
+    for needle in [
+        "[default: 35]",
+        "[default: 800]",
+        "[default: 600]",
+        "[default: 1]",
+        "[default: phong]",
+        "[default: out.png]",
+        "[default: all cores]",
+        "[default: 360]",
+        "[default: 0]",
+        "[default: 30]",
+        "[default: 0,1,0]",
+        "Examples:",
+        "--tile 3/8",
+        "Exit status:",
+        "2  bad usage",
+    ] {
+        assert!(help.contains(needle), "{needle:?} missing from render --help:\n{help}");
+    }
+    phongrt().arg("--help").assert().success().stdout(predicate::str::contains("1  bad input"));
+}
+
+#[test]
+fn exr_is_compressed_and_alpha_is_coverage() {
+    let dir = tempfile::tempdir().unwrap();
+    let out = dir.path().join("a.exr");
+    phongrt()
+        .args(["render", "scenes/sphere_lowpoly.obj", "-q", "--alpha-channel", "-o"])
+        .arg(&out)
+        .assert()
+        .success();
+    // 800x600 RGBA f32 uncompressed is 7.7 MB.
+    let size = std::fs::metadata(&out).unwrap().len();
+    assert!(size < 2_000_000, "{size} bytes");
+    let img = image::open(&out).unwrap().to_rgba32f();
+    assert_eq!(img.dimensions(), (800, 600));
+    assert_eq!(img.get_pixel(0, 0).0, [0.0; 4], "background: no coverage, premultiplied");
+    assert_eq!(img.get_pixel(400, 300).0[3], 1.0, "the sphere covers the centre");
+    let png = dir.path().join("a.png");
+    phongrt()
+        .args([
+            "render",
+            "scenes/sphere_lowpoly.obj",
+            "-q",
+            "--alpha-channel",
+            "--width",
+            "80",
+            "--height",
+            "60",
+            "-o",
+        ])
+        .arg(&png)
+        .assert()
+        .success();
+    let img = image::open(&png).unwrap();
+    assert_eq!(img.color(), image::ColorType::Rgba8);
+    let img = img.to_rgba8();
+    assert_eq!(img.get_pixel(0, 0).0[3], 0);
+    assert_eq!(img.get_pixel(40, 30).0[3], 255);
+}
+
+#[test]
+fn info_json_parses() {
+    let a = phongrt().args(["info", "--json", "scenes/sphere_lowpoly.obj"]).assert().success();
+    let v: serde_json::Value = serde_json::from_slice(&a.get_output().stdout).unwrap();
+    assert_eq!(v["triangles"], 120);
+    assert!(v["embree"]["version"].as_str().unwrap().starts_with("4."));
+    assert_eq!(v["meshes"].as_array().unwrap().len(), 1);
+}
+
+#[test]
+fn completions_name_the_farm_flags() {
+    phongrt()
+        .args(["completions", "bash"])
+        .assert()
+        .success()
+        .stdout(predicate::str::contains("--tile").and(predicate::str::contains("stitch")));
 }

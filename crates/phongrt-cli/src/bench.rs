@@ -738,202 +738,197 @@ pub fn mem_total() -> Option<u64> {
     Some(kb * 1024)
 }
 
-/// Error against time, log–log, one panel per scene: each method a labelled point at
-/// (ns per primary ray on one thread, mean relative t error; errors below 1e-9 drawn at 1e-9).
-pub fn plot(rows: &[BenchRow]) -> crate::render::Image {
-    use crate::render::text::draw_text;
+/// Register the embedded DejaVu Sans as plotters' "sans-serif" (idempotent).
+fn register_plot_font() -> anyhow::Result<()> {
+    plotters::style::register_font(
+        "sans-serif",
+        plotters::style::FontStyle::Normal,
+        crate::render::text::DEJAVU_SANS,
+    )
+    .map_err(|_| anyhow::anyhow!("the embedded DejaVu Sans does not parse"))
+}
+
+fn plot_error<E: std::fmt::Debug>(e: E) -> anyhow::Error {
+    anyhow::anyhow!("cannot draw the plot: {e:?}")
+}
+
+/// Decades `[10^floor(lo), 10^ceil(hi)]` around the data, at least one decade wide.
+fn decades(lo: f64, hi: f64) -> std::ops::Range<f64> {
+    let (a, b) = (lo.log10().floor(), hi.log10().ceil());
+    10f64.powf(a)..10f64.powf(b.max(a + 1.0))
+}
+
+/// The colour of series `i`: a qualitative palette (Tableau 10 and two more), cycled.
+fn series_colour(i: usize) -> plotters::style::RGBColor {
+    const COLOURS: [(u8, u8, u8); 12] = [
+        (31, 119, 180),
+        (255, 127, 14),
+        (44, 160, 44),
+        (214, 39, 40),
+        (148, 103, 189),
+        (140, 86, 75),
+        (227, 119, 194),
+        (127, 127, 127),
+        (188, 189, 34),
+        (23, 190, 207),
+        (0, 0, 0),
+        (255, 215, 0),
+    ];
+    let (r, g, b) = COLOURS[i % COLOURS.len()];
+    plotters::style::RGBColor(r, g, b)
+}
+
+fn rgb_image(w: u32, h: u32, buf: Vec<u8>) -> anyhow::Result<image::RgbImage> {
+    image::RgbImage::from_raw(w, h, buf).ok_or_else(|| anyhow::anyhow!("plot buffer size mismatch"))
+}
+
+/// Error against time, log–log, one panel per scene: each method a point (legend on the right)
+/// at (ns per primary ray on one thread, mean relative t error; errors below 1e-9 drawn at 1e-9).
+/// Drawn with plotters into an 8-bit sRGB buffer.
+pub fn plot(rows: &[BenchRow]) -> anyhow::Result<image::RgbImage> {
+    use plotters::prelude::*;
+    // Fast and exact (the ideal corner) is where no method sits.
+    const LEGEND: SeriesLabelPosition = SeriesLabelPosition::LowerLeft;
+    register_plot_font()?;
     let scenes: Vec<&str> = {
         let mut v: Vec<&str> = rows.iter().map(|r| r.scene.as_str()).collect();
         v.dedup();
         v
     };
-    let (pw, ph) = (720u32, 360u32);
-    let mut img = crate::render::Image::new(pw, ph * scenes.len().max(1) as u32);
-    for p in img.pixels.iter_mut() {
-        *p = Vec3::splat(1.0);
-    }
-    let black = Vec3::ZERO;
-    for (k, sc) in scenes.iter().enumerate() {
-        let y0 = k as u32 * ph;
-        let rs: Vec<&BenchRow> = rows.iter().filter(|r| r.scene == *sc).collect();
-        let xs: Vec<f64> = rs.iter().map(|r| (1e3 / r.mrays_1t.max(1e-9)).log10()).collect();
-        let ys: Vec<f64> = rs.iter().map(|r| r.err_t_mean.max(1e-9).log10()).collect();
-        let (xmin, xmax) = (
-            xs.iter().cloned().fold(f64::MAX, f64::min).floor(),
-            xs.iter()
-                .cloned()
-                .fold(f64::MIN, f64::max)
-                .ceil()
-                .max(xs.iter().cloned().fold(f64::MAX, f64::min).floor() + 1.0),
-        );
-        let (ymin, ymax) = (-9.0f64, ys.iter().cloned().fold(-8.0, f64::max).ceil());
-        let (l, r, t, b) = (70u32, pw - 20, y0 + 30, y0 + ph - 40);
-        let px = |x: f64| l as f64 + (x - xmin) / (xmax - xmin) * (r - l) as f64;
-        let py = |y: f64| b as f64 - (y - ymin) / (ymax - ymin) * (b - t) as f64;
-        for x in l..=r {
-            img.set(x, b, black);
-        }
-        for y in t..=b {
-            img.set(l, y, black);
-        }
-        let mut e = xmin;
-        while e <= xmax + 1e-9 {
-            let x = px(e) as u32;
-            for y in b..b + 4 {
-                img.set(x.min(pw - 1), y, black);
-            }
-            draw_text(&mut img, &format!("1e{}", e as i32), x.saturating_sub(12), b + 8, 1, black);
-            e += 1.0;
-        }
-        let mut e = ymin;
-        while e <= ymax + 1e-9 {
-            let y = py(e) as u32;
-            for x in l - 4..l {
-                img.set(x, y, black);
-            }
-            draw_text(&mut img, &format!("1e{}", e as i32), 20, y.saturating_sub(3), 1, black);
-            e += 1.0;
-        }
-        draw_text(&mut img, &format!("{sc}: mean rel t error vs ns per ray (1 thread)"), l, y0 + 8, 2, black);
-        for (i, row) in rs.iter().enumerate() {
-            let (x, y) = (px(xs[i]) as i64, py(ys[i]) as i64);
-            let c = if row.method.starts_with("direct") {
-                Vec3::new(0.8, 0.1, 0.1)
-            } else if row.method.starts_with("pretess") {
-                Vec3::new(0.1, 0.3, 0.8)
-            } else {
-                Vec3::new(0.1, 0.6, 0.2)
-            };
-            for dy in -3..=3i64 {
-                for dx in -3..=3i64 {
-                    let (xx, yy) = (x + dx, y + dy);
-                    if xx >= 0 && yy >= 0 && (xx as u32) < pw && (yy as u32) < img.height {
-                        img.set(xx as u32, yy as u32, c);
-                    }
-                }
-            }
-            draw_text(
-                &mut img,
-                &row.method,
-                (x + 6).max(0) as u32,
-                (y - 10 - 9 * (i as i64 % 2)).max(0) as u32,
-                1,
-                black,
+    let (pw, ph) = (960u32, 420u32);
+    let height = ph * scenes.len().max(1) as u32;
+    let mut buf = vec![255u8; pw as usize * height as usize * 3];
+    {
+        let root = BitMapBackend::with_buffer(&mut buf, (pw, height)).into_drawing_area();
+        root.fill(&WHITE).map_err(plot_error)?;
+        let panels = root.split_evenly((scenes.len().max(1), 1));
+        for (panel, sc) in panels.iter().zip(&scenes) {
+            let rs: Vec<&BenchRow> = rows.iter().filter(|r| r.scene == *sc).collect();
+            let pts: Vec<(f64, f64)> =
+                rs.iter().map(|r| (1e3 / r.mrays_1t.max(1e-9), r.err_t_mean.max(1e-9))).collect();
+            let xr = decades(
+                pts.iter().map(|p| p.0).fold(f64::MAX, f64::min),
+                pts.iter().map(|p| p.0).fold(f64::MIN, f64::max),
             );
+            let yr = decades(1e-9, pts.iter().map(|p| p.1).fold(1e-8, f64::max));
+            let mut chart = ChartBuilder::on(panel)
+                .caption(format!("{sc}: mean relative t error vs time per ray"), ("sans-serif", 20))
+                .margin(12)
+                .margin_right(24)
+                .x_label_area_size(42)
+                .y_label_area_size(64)
+                .build_cartesian_2d(xr.log_scale(), yr.log_scale())
+                .map_err(plot_error)?;
+            chart
+                .configure_mesh()
+                .x_desc("ns per primary ray (1 thread)")
+                .y_desc("mean relative t error")
+                .x_label_formatter(&|v| format!("{v:.0e}"))
+                .y_label_formatter(&|v| format!("{v:.0e}"))
+                .label_style(("sans-serif", 13))
+                .draw()
+                .map_err(plot_error)?;
+            for (i, (row, p)) in rs.iter().zip(&pts).enumerate() {
+                let c = series_colour(i);
+                let marker = if row.method.starts_with("direct") { 6 } else { 4 };
+                chart
+                    .draw_series(std::iter::once(Circle::new(*p, marker, c.filled())))
+                    .map_err(plot_error)?
+                    .label(row.method.clone())
+                    .legend(move |(x, y)| Circle::new((x + 6, y), 4, c.filled()));
+            }
+            chart
+                .configure_series_labels()
+                .position(LEGEND)
+                .label_font(("sans-serif", 12))
+                .background_style(WHITE.mix(0.9))
+                .border_style(BLACK)
+                .draw()
+                .map_err(plot_error)?;
         }
+        root.present().map_err(plot_error)?;
     }
-    img
+    rgb_image(pw, height, buf)
 }
 
 /// Build time and memory against scene size, log–log: two panels, one line per method through
-/// its scenes in order of triangle count.
-pub fn plot_scaling(rows: &[BenchRow]) -> crate::render::Image {
-    use crate::render::text::draw_text;
-    let (pw, ph) = (720u32, 380u32);
-    let mut img = crate::render::Image::new(pw, ph * 2);
-    for p in img.pixels.iter_mut() {
-        *p = Vec3::splat(1.0);
-    }
-    let black = Vec3::ZERO;
+/// its scenes in order of triangle count. Drawn with plotters into an 8-bit sRGB buffer.
+pub fn plot_scaling(rows: &[BenchRow]) -> anyhow::Result<image::RgbImage> {
+    use plotters::prelude::*;
+    // Few triangles and much time or memory: where no line goes.
+    const LEGEND: SeriesLabelPosition = SeriesLabelPosition::UpperLeft;
+    register_plot_font()?;
+    let (pw, ph) = (960u32, 420u32);
+    let mut buf = vec![255u8; pw as usize * ph as usize * 2 * 3];
     let mut methods: Vec<&str> = Vec::new();
     for r in rows {
         if !methods.contains(&r.method.as_str()) {
             methods.push(&r.method);
         }
     }
-    let colour = |i: usize| {
-        // Distinct hues around the colour wheel.
-        let h = i as f32 / methods.len().max(1) as f32 * 6.0;
-        let x = 1.0 - ((h % 2.0) - 1.0).abs();
-        let (r, g, b) = match h as u32 {
-            0 => (1.0, x, 0.0),
-            1 => (x, 1.0, 0.0),
-            2 => (0.0, 1.0, x),
-            3 => (0.0, x, 1.0),
-            4 => (x, 0.0, 1.0),
-            _ => (1.0, 0.0, x),
-        };
-        Vec3::new(r, g, b) * 0.8
-    };
     type Metric = fn(&BenchRow) -> f64;
-    let panels: [(&str, Metric); 2] = [
-        ("BVH build ms vs triangles", |r| r.build_ms),
-        ("memory MB (Embree + own) vs triangles", |r| bytes(r) / 1e6),
+    let panels: [(&str, &str, Metric); 2] = [
+        ("BVH build time vs triangles", "build ms", |r| r.build_ms),
+        ("memory (Embree + own) vs triangles", "MB", |r| bytes(r) / 1e6),
     ];
-    for (k, (title, metric)) in panels.iter().enumerate() {
-        let y0 = k as u32 * ph;
-        let pts: Vec<(f64, f64)> =
-            rows.iter().map(|r| ((r.triangles as f64).log10(), metric(r).max(1e-3).log10())).collect();
-        if pts.is_empty() {
-            continue;
-        }
-        let xmin = pts.iter().map(|p| p.0).fold(f64::MAX, f64::min).floor();
-        let xmax = pts.iter().map(|p| p.0).fold(f64::MIN, f64::max).ceil().max(xmin + 1.0);
-        let ymin = pts.iter().map(|p| p.1).fold(f64::MAX, f64::min).floor();
-        let ymax = pts.iter().map(|p| p.1).fold(f64::MIN, f64::max).ceil().max(ymin + 1.0);
-        let (l, r, t, b) = (70u32, pw - 150, y0 + 30, y0 + ph - 40);
-        let px = |x: f64| l as f64 + (x - xmin) / (xmax - xmin) * (r - l) as f64;
-        let py = |y: f64| b as f64 - (y - ymin) / (ymax - ymin) * (b - t) as f64;
-        for x in l..=r {
-            img.set(x, b, black);
-        }
-        for y in t..=b {
-            img.set(l, y, black);
-        }
-        let mut e = xmin;
-        while e <= xmax + 1e-9 {
-            let x = px(e) as u32;
-            for y in b..b + 4 {
-                img.set(x.min(pw - 1), y, black);
+    {
+        let root = BitMapBackend::with_buffer(&mut buf, (pw, ph * 2)).into_drawing_area();
+        root.fill(&WHITE).map_err(plot_error)?;
+        for (area, (title, ydesc, metric)) in root.split_evenly((2, 1)).iter().zip(panels.iter()) {
+            let pts: Vec<(f64, f64)> =
+                rows.iter().map(|r| ((r.triangles as f64).max(1.0), metric(r).max(1e-3))).collect();
+            if pts.is_empty() {
+                continue;
             }
-            draw_text(&mut img, &format!("1e{}", e as i32), x.saturating_sub(12), b + 8, 1, black);
-            e += 1.0;
+            let xr = decades(
+                pts.iter().map(|p| p.0).fold(f64::MAX, f64::min),
+                pts.iter().map(|p| p.0).fold(f64::MIN, f64::max),
+            );
+            let yr = decades(
+                pts.iter().map(|p| p.1).fold(f64::MAX, f64::min),
+                pts.iter().map(|p| p.1).fold(f64::MIN, f64::max),
+            );
+            let mut chart = ChartBuilder::on(area)
+                .caption(*title, ("sans-serif", 20))
+                .margin(12)
+                .margin_right(24)
+                .x_label_area_size(42)
+                .y_label_area_size(64)
+                .build_cartesian_2d(xr.log_scale(), yr.log_scale())
+                .map_err(plot_error)?;
+            chart
+                .configure_mesh()
+                .x_desc("triangles")
+                .y_desc(*ydesc)
+                .x_label_formatter(&|v| format!("{v:.0e}"))
+                .y_label_formatter(&|v| format!("{v:.0e}"))
+                .label_style(("sans-serif", 13))
+                .draw()
+                .map_err(plot_error)?;
+            for (mi, m) in methods.iter().enumerate() {
+                let c = series_colour(mi);
+                let mut series: Vec<(f64, f64)> =
+                    rows.iter().zip(&pts).filter(|(r, _)| r.method == *m).map(|(_, p)| *p).collect();
+                series.sort_by(|a, b| a.0.total_cmp(&b.0));
+                chart
+                    .draw_series(LineSeries::new(series.clone(), c.stroke_width(2)))
+                    .map_err(plot_error)?
+                    .label(m.to_string())
+                    .legend(move |(x, y)| PathElement::new(vec![(x, y), (x + 16, y)], c.stroke_width(2)));
+                chart
+                    .draw_series(series.iter().map(|p| Circle::new(*p, 3, c.filled())))
+                    .map_err(plot_error)?;
+            }
+            chart
+                .configure_series_labels()
+                .position(LEGEND)
+                .label_font(("sans-serif", 12))
+                .background_style(WHITE.mix(0.9))
+                .border_style(BLACK)
+                .draw()
+                .map_err(plot_error)?;
         }
-        let mut e = ymin;
-        while e <= ymax + 1e-9 {
-            let y = py(e) as u32;
-            for x in l - 4..l {
-                img.set(x, y, black);
-            }
-            draw_text(&mut img, &format!("1e{}", e as i32), 20, y.saturating_sub(3), 1, black);
-            e += 1.0;
-        }
-        draw_text(&mut img, title, l, y0 + 8, 2, black);
-        for (mi, m) in methods.iter().enumerate() {
-            let c = colour(mi);
-            let mut series: Vec<(f64, f64)> =
-                rows.iter().zip(&pts).filter(|(r, _)| r.method == *m).map(|(_, p)| *p).collect();
-            series.sort_by(|a, b| a.0.total_cmp(&b.0));
-            let to_px = |p: (f64, f64)| (px(p.0), py(p.1));
-            for w in series.windows(2) {
-                let ((x0, y0p), (x1, y1p)) = (to_px(w[0]), to_px(w[1]));
-                let steps = ((x1 - x0).abs().max((y1p - y0p).abs()) as usize).max(1);
-                for sidx in 0..=steps {
-                    let f = sidx as f64 / steps as f64;
-                    let (x, y) = (x0 + (x1 - x0) * f, y0p + (y1p - y0p) * f);
-                    if x >= 0.0 && y >= 0.0 && (x as u32) < pw && (y as u32) < img.height {
-                        img.set(x as u32, y as u32, c);
-                    }
-                }
-            }
-            for p in &series {
-                let (x, y) = to_px(*p);
-                for dy in -2..=2i64 {
-                    for dx in -2..=2i64 {
-                        let (xx, yy) = (x as i64 + dx, y as i64 + dy);
-                        if xx >= 0 && yy >= 0 && (xx as u32) < pw && (yy as u32) < img.height {
-                            img.set(xx as u32, yy as u32, c);
-                        }
-                    }
-                }
-            }
-            // Legend on the right.
-            let ly = y0 + 34 + 12 * mi as u32;
-            for x in r + 12..r + 24 {
-                img.set(x, ly + 3, c);
-            }
-            draw_text(&mut img, m, r + 28, ly, 1, black);
-        }
+        root.present().map_err(plot_error)?;
     }
-    img
+    rgb_image(pw, ph * 2, buf)
 }

@@ -11,7 +11,7 @@ use glam::Vec3;
 /// boundaries, with no tessellation. Flat mode renders the same mesh with Embree's own
 /// triangles, for comparison.
 #[derive(Parser, Debug)]
-#[command(name = "phongrt", version, about, long_about = None, propagate_version = true)]
+#[command(name = "phongrt", version, about, long_about = None, propagate_version = true, after_help = EXIT_CODES)]
 pub struct Cli {
     #[command(subcommand)]
     pub command: Command,
@@ -20,9 +20,14 @@ pub struct Cli {
 #[derive(Subcommand, Debug)]
 pub enum Command {
     /// Render an OBJ file to a PNG (sRGB) or EXR (linear) image.
+    #[command(after_help = RENDER_EXAMPLES)]
     Render(RenderArgs),
     /// Describe an OBJ file (objects, vertices, triangles, normals, bounds) and the Embree in use.
     Info(InfoArgs),
+    /// Assemble tiles rendered with --tile I/N or --crop into one image, bit-identical to the
+    /// single-machine render.
+    #[command(after_help = STITCH_EXAMPLES)]
+    Stitch(StitchArgs),
     /// Measure every intersector (analytic, analytic+polish, Newton; f32 and f64) against an
     /// independent reference on hard cases, and print a markdown table.
     Accuracy(AccuracyArgs),
@@ -33,6 +38,15 @@ pub enum Command {
     /// (background = the top-left pixel's colour) whose luminance jumps by more than --threshold
     /// /255 to the left or upper neighbour. Prints: steps, largest step, interior pixels.
     Smoothness(SmoothnessArgs),
+    /// Print a shell completion script: `phongrt completions bash > /etc/bash_completion.d/phongrt`.
+    Completions(CompletionsArgs),
+}
+
+#[derive(Args, Debug)]
+pub struct CompletionsArgs {
+    /// The shell.
+    #[arg(value_enum)]
+    pub shell: clap_complete::Shell,
 }
 
 #[derive(Args, Debug)]
@@ -60,7 +74,8 @@ pub enum Mode {
 pub struct RenderArgs {
     /// The OBJ file to render (its MTL files are read too), or a TOML scene file naming one.
     pub scene: PathBuf,
-    /// Output image: .png (8-bit sRGB) or .exr (linear float).
+    /// Output image: .png (8-bit sRGB) or .exr (linear float, ZIP compressed); "-" writes PNG
+    /// to stdout. Checked (extension, directory exists and is writable) before any work.
     #[arg(short, long, default_value = "out.png")]
     pub output: PathBuf,
     /// Image width in pixels [default: 800].
@@ -103,9 +118,12 @@ pub struct RenderArgs {
     /// Per-object mode, repeatable: NAME=flat or NAME=phong[:ALPHA] (overrides --mode).
     #[arg(long = "object", value_name = "NAME=MODE")]
     pub objects: Vec<String>,
-    /// Render threads (default: all cores). The image does not depend on it.
+    /// Render threads, at least 1 [default: all cores]; more than the machine has starts what it
+    /// has. The image does not depend on it.
     #[arg(long)]
     pub threads: Option<usize>,
+    #[command(flatten)]
+    pub farm: FarmArgs,
     #[command(flatten)]
     pub camera: CameraArgs,
     #[command(flatten)]
@@ -126,7 +144,7 @@ pub struct CameraArgs {
     /// Camera up vector "x,y,z" [default: 0,1,0].
     #[arg(long, value_parser = parse_vec3, allow_hyphen_values = true)]
     pub up: Option<Vec3>,
-    /// Vertical field of view in degrees.
+    /// Vertical field of view in degrees, in (0, 180) [default: 35].
     #[arg(long)]
     pub fov: Option<f32>,
 }
@@ -142,6 +160,9 @@ pub struct LoadArgs {
 pub struct InfoArgs {
     /// The OBJ file to describe.
     pub scene: PathBuf,
+    /// Print the description as one JSON object.
+    #[arg(long)]
+    pub json: bool,
     #[command(flatten)]
     pub load: LoadArgs,
 }
@@ -201,6 +222,79 @@ pub fn parse_terminator(s: &str) -> Result<phongrt_cli::render::Terminator, Stri
         format!("{s:?} is not one of {}", names.join(", "))
     })
 }
+
+/// Crop, tiles, frames, seed, stats and alpha: what a farm scheduler's task needs.
+#[derive(Args, Debug)]
+pub struct FarmArgs {
+    /// Render only the pixels X0 <= x < X1, Y0 <= y < Y1 of the full frame; the output is the
+    /// window's size and records its place for `phongrt stitch`.
+    #[arg(long, value_name = "X0,Y0,X1,Y1")]
+    pub crop: Option<String>,
+    /// Render tile I of N (0 <= I < N): N bands of whole rows, for one scheduler task each.
+    #[arg(long, value_name = "I/N")]
+    pub tile: Option<String>,
+    /// Render N frames of an orbit around the look-at point, written as OUT_0000.EXT, ...
+    #[arg(long, value_name = "N")]
+    pub frames: Option<u32>,
+    /// Render only frame I of --frames N (0 <= I < N), for one scheduler task per frame.
+    #[arg(long, value_name = "I", requires = "frames")]
+    pub frame: Option<u32>,
+    /// Degrees of orbit about the up vector over all --frames (frame k turns k*DEG/N).
+    #[arg(long, value_name = "DEG", default_value_t = 360.0, allow_hyphen_values = true)]
+    pub orbit: f32,
+    /// Seed of the per-pixel sample streams (jitter, area lights, AO).
+    #[arg(long, value_name = "N", default_value_t = 0)]
+    pub seed: u64,
+    /// Write statistics (rays by kind, Mrays/s, time per stage, effects, settings) as JSON:
+    /// "json" prints them on stdout (stderr with -o -), anything else is a file to write.
+    #[arg(long, value_name = "json|FILE")]
+    pub stats: Option<String>,
+    /// Add an alpha channel (coverage): premultiplied in EXR, straight in PNG.
+    #[arg(long)]
+    pub alpha_channel: bool,
+}
+
+#[derive(Args, Debug)]
+pub struct StitchArgs {
+    /// The assembled image (.png or .exr).
+    pub output: PathBuf,
+    /// The tiles, in any order: PNG or EXR files written by `render --tile` or `--crop`.
+    #[arg(required = true, value_name = "TILE")]
+    pub tiles: Vec<PathBuf>,
+}
+
+/// Exit codes, shown at the end of `--help`.
+pub const EXIT_CODES: &str = "\
+Exit status:
+  0  success
+  1  bad input: an OBJ, MTL or scene file that cannot be read or is invalid, or an output that
+     cannot be written
+  2  bad usage: an unknown flag, or a flag value that is out of range or malformed";
+
+const RENDER_EXAMPLES: &str = "\
+Examples:
+  phongrt render scenes/sphere_lowpoly.obj -o sphere.png
+  phongrt render scenes/sphere_lowpoly.obj --compare -o compare.png
+  phongrt render scene.toml --width 1920 --height 1080 --spp 16 -o frame.exr --alpha-channel
+  phongrt render scenes/sphere_lowpoly.obj --tile 3/8 -o tile_3.png     # one task of 8
+  phongrt render scenes/sphere_lowpoly.obj --frames 120 --frame 7 -o orbit.png  # writes orbit_0007.png
+  phongrt render scenes/sphere_lowpoly.obj --stats json -q -o - > out.png
+
+Exit status:
+  0  success
+  1  bad input: an OBJ, MTL or scene file that cannot be read or is invalid, or an output that
+     cannot be written
+  2  bad usage: an unknown flag, or a flag value that is out of range or malformed";
+
+const STITCH_EXAMPLES: &str = "\
+Examples:
+  for i in 0 1 2 3; do phongrt render m.obj --tile $i/4 -o tile_$i.png; done
+  phongrt stitch frame.png tile_*.png
+
+Exit status:
+  0  success
+  1  a tile cannot be read, or the output cannot be written
+  2  the tiles overlap, leave a gap, or come from frames of different sizes";
 
 /// Parse "x,y,z" into a vector of finite numbers.
 pub fn parse_vec3(s: &str) -> Result<Vec3, String> {

@@ -2,32 +2,96 @@
 
 mod cli;
 
+use std::io::Write;
 use std::path::{Path, PathBuf};
 use std::process::ExitCode;
+use std::time::Instant;
 
 use anyhow::{bail, Context};
 use clap::Parser;
 use glam::Vec3;
 
-use cli::{Cli, Command, InfoArgs, Mode, RenderArgs};
+use cli::{Cli, Command, InfoArgs, Mode, RenderArgs, StitchArgs};
 use phongrt::embree::{self, Device};
 use phongrt::scene::{self, LoadOptions};
+use phongrt_cli::render::image_out::{self, EncodeOptions, ImageFormat, Tile, TilePixels};
 use phongrt_cli::render::scene_file::{LightSection, ModeName, SceneFile};
 use phongrt_cli::render::{
-    self, AmbientOcclusion, Camera, Light, ObjectMode, ObjectSettings, RenderOutput, RenderSettings, World,
+    self, AmbientOcclusion, Camera, Image, Light, ObjectMode, ObjectSettings, RenderExtent, RenderOutput,
+    RenderSettings, Window, World,
 };
 
+/// A mistake on the command line (a flag or its value): exit status 2. Everything else (an
+/// input that cannot be read or is invalid, an output that cannot be written) is status 1.
+#[derive(Debug)]
+struct Usage(String);
+
+impl std::fmt::Display for Usage {
+    fn fmt(&self, f: &mut std::fmt::Formatter<'_>) -> std::fmt::Result {
+        f.write_str(&self.0)
+    }
+}
+
+impl std::error::Error for Usage {}
+
+/// Return early with a usage error (exit status 2).
+macro_rules! usage {
+    ($($t:tt)*) => { return Err(anyhow::Error::new(Usage(format!($($t)*)))) };
+}
+
+/// Exit status for bad input (files read or written).
+const EXIT_INPUT: u8 = 1;
+/// Exit status for bad usage (flags and their values).
+const EXIT_USAGE: u8 = 2;
+
 fn main() -> ExitCode {
-    let cli = Cli::parse();
+    let cli = match Cli::try_parse() {
+        Ok(c) => c,
+        Err(e) => {
+            use clap::error::ErrorKind;
+            if matches!(
+                e.kind(),
+                ErrorKind::DisplayHelp
+                    | ErrorKind::DisplayVersion
+                    | ErrorKind::DisplayHelpOnMissingArgumentOrSubcommand
+            ) {
+                e.exit();
+            }
+            // One line: clap's first line (it names the flag and the value).
+            let text = e.to_string();
+            let line = text.lines().find(|l| !l.trim().is_empty()).unwrap_or("bad usage");
+            eprintln!("phongrt: error: {}", line.trim_start_matches("error: "));
+            return ExitCode::from(EXIT_USAGE);
+        }
+    };
     match run(cli) {
         Ok(()) => ExitCode::SUCCESS,
         Err(e) => {
-            // One line: the context chain joined, most general first.
-            let chain: Vec<String> = e.chain().map(|c| c.to_string()).collect();
-            eprintln!("phongrt: error: {}", chain.join(": "));
-            ExitCode::FAILURE
+            eprintln!("phongrt: error: {}", one_line(&e));
+            if e.chain().any(|c| c.is::<Usage>()) {
+                ExitCode::from(EXIT_USAGE)
+            } else {
+                ExitCode::from(EXIT_INPUT)
+            }
         }
     }
+}
+
+/// The context chain on one line, most general first, without repeating a cause that an outer
+/// message already quotes.
+fn one_line(e: &anyhow::Error) -> String {
+    let mut line = String::new();
+    for c in e.chain() {
+        let s = c.to_string().replace('\n', " ");
+        if line.contains(&s) {
+            continue;
+        }
+        if !line.is_empty() {
+            line.push_str(": ");
+        }
+        line.push_str(&s);
+    }
+    line
 }
 
 fn run(cli: Cli) -> anyhow::Result<()> {
@@ -35,6 +99,7 @@ fn run(cli: Cli) -> anyhow::Result<()> {
     match cli.command {
         Command::Render(args) => render_cmd(args),
         Command::Info(args) => info_cmd(args),
+        Command::Stitch(args) => stitch_cmd(args),
         Command::Bench(args) => bench_cmd(args),
         Command::Smoothness(args) => {
             let img = image::open(&args.image)
@@ -50,23 +115,42 @@ fn run(cli: Cli) -> anyhow::Result<()> {
             println!("{} steps, largest {:.1}/255, {} interior pixels", s.count, s.largest, s.interior);
             Ok(())
         }
+        Command::Completions(args) => {
+            use clap::CommandFactory;
+            let mut out = Vec::new();
+            clap_complete::generate(args.shell, &mut Cli::command(), "phongrt", &mut out);
+            let mut stdout = std::io::stdout().lock();
+            stdout.write_all(&out).and_then(|_| stdout.flush()).context("cannot write to stdout")
+        }
         Command::Accuracy(args) => {
-            anyhow::ensure!(args.rays > 0, "--rays must be at least 1");
+            if args.rays == 0 {
+                usage!("--rays 0: must be at least 1");
+            }
             print!("{}", phongrt::phong::accuracy::report(args.rays, args.seed));
             Ok(())
         }
     }
 }
 
+/// Refuse a file that is plainly not an OBJ (by its extension) before reading it.
+fn check_obj_path(path: &Path) -> anyhow::Result<()> {
+    if let Some(ext) = path.extension().map(|e| e.to_string_lossy().to_ascii_lowercase()) {
+        if ext != "obj" {
+            bail!("{}: not an OBJ file (.{ext}); phongrt reads Wavefront .obj meshes", path.display());
+        }
+    }
+    Ok(())
+}
+
 fn load_options(crease_angle: f32) -> anyhow::Result<LoadOptions> {
-    anyhow::ensure!(
-        (0.0..=180.0).contains(&crease_angle),
-        "--crease-angle {crease_angle} is not in [0, 180] degrees"
-    );
+    if !(0.0..=180.0).contains(&crease_angle) {
+        usage!("--crease-angle {crease_angle} is not in [0, 180] degrees");
+    }
     Ok(LoadOptions { crease_angle_deg: crease_angle, ..LoadOptions::default() })
 }
 
 fn load(path: &Path, opts: &LoadOptions) -> anyhow::Result<scene::Scene> {
+    check_obj_path(path)?;
     let s = scene::load_obj(path, opts)?;
     for w in &s.warnings {
         eprintln!("phongrt: warning: {w}");
@@ -76,25 +160,308 @@ fn load(path: &Path, opts: &LoadOptions) -> anyhow::Result<scene::Scene> {
 
 /// `NAME=flat` or `NAME=phong[:ALPHA]`.
 fn parse_object_override(s: &str) -> anyhow::Result<(String, ObjectMode)> {
-    let (name, mode) = s
-        .rsplit_once('=')
-        .with_context(|| format!("--object {s:?}: expected NAME=flat or NAME=phong[:ALPHA]"))?;
+    let Some((name, mode)) = s.rsplit_once('=') else {
+        usage!("--object {s:?}: expected NAME=flat or NAME=phong[:ALPHA]");
+    };
     let mode = match mode.split_once(':') {
         None if mode == "flat" => ObjectMode::Flat,
         None if mode == "phong" => ObjectMode::Phong { alpha: phongrt::phong::DEFAULT_ALPHA },
         Some(("phong", a)) => {
-            let alpha: f32 =
-                a.parse().with_context(|| format!("--object {s:?}: alpha {a:?} is not a number"))?;
-            anyhow::ensure!((0.0..=1.0).contains(&alpha), "--object {s:?}: alpha {alpha} is not in [0, 1]");
+            let Ok(alpha) = a.parse::<f32>() else {
+                usage!("--object {s:?}: alpha {a:?} is not a number");
+            };
+            if !(0.0..=1.0).contains(&alpha) {
+                usage!("--object {s:?}: alpha {alpha} is not in [0, 1]");
+            }
             ObjectMode::Phong { alpha }
         }
-        _ => bail!("--object {s:?}: mode must be flat, phong or phong:ALPHA"),
+        _ => usage!("--object {s:?}: mode must be flat, phong or phong:ALPHA"),
     };
     Ok((name.to_string(), mode))
 }
 
+/// Where the image goes.
+#[derive(Clone, Debug, PartialEq)]
+enum Output {
+    /// `-o -`: PNG on stdout.
+    Stdout,
+    File(PathBuf),
+}
+
+impl Output {
+    fn name(&self) -> String {
+        match self {
+            Output::Stdout => "-".to_string(),
+            Output::File(p) => p.display().to_string(),
+        }
+    }
+}
+
+/// Where `--stats` goes.
+#[derive(Clone, Debug)]
+enum StatsTarget {
+    /// `--stats json`: stdout, or stderr when the image goes to stdout.
+    Print,
+    File(PathBuf),
+}
+
+/// The frames to render: `count` frames of an orbit of `orbit_deg`, of which `only` (or all).
+#[derive(Clone, Copy, Debug)]
+struct Frames {
+    count: u32,
+    only: Option<u32>,
+    orbit_deg: f32,
+}
+
+/// Every render option, resolved and checked once before any work.
+#[derive(Clone, Debug)]
+struct RenderPlan {
+    width: u32,
+    height: u32,
+    spp: u32,
+    seed: u64,
+    threads: Option<usize>,
+    /// The window of the frame to render (`None` = all of it).
+    crop: Option<Window>,
+    frames: Option<Frames>,
+    output: Output,
+    format: ImageFormat,
+    stats: Option<StatsTarget>,
+    alpha: bool,
+}
+
+impl RenderPlan {
+    /// (frame index, output) for every frame to render; index `None` without `--frames`.
+    fn outputs(&self) -> Vec<(Option<u32>, Output)> {
+        let Some(f) = self.frames else {
+            return vec![(None, self.output.clone())];
+        };
+        let ks: Vec<u32> = match f.only {
+            Some(k) => vec![k],
+            None => (0..f.count).collect(),
+        };
+        ks.into_iter()
+            .map(|k| {
+                let out = match &self.output {
+                    Output::Stdout => Output::Stdout,
+                    Output::File(p) => Output::File(frame_path(p, k)),
+                };
+                (Some(k), out)
+            })
+            .collect()
+    }
+}
+
+/// `out.png` -> `out_0007.png`.
+fn frame_path(p: &Path, k: u32) -> PathBuf {
+    let stem = p.file_stem().map(|s| s.to_string_lossy().into_owned()).unwrap_or_default();
+    let ext = p.extension().map(|e| format!(".{}", e.to_string_lossy())).unwrap_or_default();
+    p.with_file_name(format!("{stem}_{k:04}{ext}"))
+}
+
+/// `X0,Y0,X1,Y1` inside a `w x h` frame.
+fn parse_crop(s: &str, w: u32, h: u32) -> anyhow::Result<Window> {
+    let v: Option<Vec<u32>> = s.split(',').map(|t| t.trim().parse().ok()).collect();
+    let Some(v) = v.filter(|v| v.len() == 4) else {
+        usage!("--crop {s:?}: expected four pixel bounds X0,Y0,X1,Y1 (whole numbers)");
+    };
+    let (x0, y0, x1, y1) = (v[0], v[1], v[2], v[3]);
+    if !(x0 < x1 && x1 <= w && y0 < y1 && y1 <= h) {
+        usage!("--crop {s}: not a window of the {w}x{h} image (need 0 <= X0 < X1 <= {w} and 0 <= Y0 < Y1 <= {h})");
+    }
+    Ok(Window { x0, y0, x1, y1, full_width: w, full_height: h })
+}
+
+/// `I/N`: the I-th of N bands of whole rows of a `w x h` frame.
+fn parse_tile(s: &str, w: u32, h: u32) -> anyhow::Result<Window> {
+    let parsed = s
+        .split_once('/')
+        .and_then(|(i, n)| Some((i.trim().parse::<u32>().ok()?, n.trim().parse::<u32>().ok()?)));
+    let Some((i, n)) = parsed else {
+        usage!("--tile {s:?}: expected I/N with whole numbers, 0 <= I < N");
+    };
+    if n == 0 {
+        usage!("--tile {s}: N must be at least 1");
+    }
+    if i >= n {
+        usage!("--tile {s}: index {i} is out of range (0..={} for {n} tiles)", n - 1);
+    }
+    if n > h {
+        usage!("--tile {s}: {n} tiles is more than the image's {h} rows");
+    }
+    let band = |k: u32| (k as u64 * h as u64 / n as u64) as u32;
+    Ok(Window { x0: 0, y0: band(i), x1: w, y1: band(i + 1), full_width: w, full_height: h })
+}
+
+/// The memory this machine (or `PHONGRT_MAX_MEMORY`, in bytes) lets a render use.
+fn memory_budget() -> Option<u64> {
+    if let Some(v) = std::env::var_os("PHONGRT_MAX_MEMORY") {
+        return v.to_str().and_then(|s| s.trim().parse().ok());
+    }
+    let info = std::fs::read_to_string("/proc/meminfo").ok()?;
+    let line = info.lines().find(|l| l.starts_with("MemAvailable:"))?;
+    let kb: u64 = line.split_whitespace().nth(1)?.parse().ok()?;
+    Some(kb * 1024)
+}
+
+fn gb(bytes: u64) -> String {
+    format!("{:.1} GB", bytes as f64 / 1e9)
+}
+
+/// Resolve and check every option that needs no mesh: all of it happens before loading.
+fn plan(args: &RenderArgs, sf: Option<&SceneFile>) -> anyhow::Result<RenderPlan> {
+    anyhow::ensure!(
+        (0.0..=1.0).contains(&args.alpha),
+        Usage(format!("--alpha {} is not in [0, 1]", args.alpha))
+    );
+    for (flag, v) in [("--width", args.width), ("--height", args.height)] {
+        if let Some(v) = v {
+            if v == 0 || v > 1 << 15 {
+                usage!("{flag} {v}: image size is out of range (1..=32768 per side)");
+            }
+        }
+    }
+    if let Some(s) = args.spp {
+        if s == 0 || s > 1 << 16 {
+            usage!("--spp {s}: samples per pixel is out of range (1..=65536)");
+        }
+    }
+    if let Some(f) = args.camera.fov {
+        if !(f > 0.0 && f < 180.0) {
+            usage!("--fov {f}: the field of view is not in (0, 180) degrees");
+        }
+    }
+    if let Some(u) = args.camera.up {
+        if u.length_squared() == 0.0 {
+            usage!("--up 0,0,0: the up vector must not be zero");
+        }
+    }
+    let width = args.width.or(sf.and_then(|s| s.render.width)).unwrap_or(800);
+    let height = args.height.or(sf.and_then(|s| s.render.height)).unwrap_or(600);
+    let spp = args.spp.or(sf.and_then(|s| s.render.spp)).unwrap_or(1);
+    let f = &args.farm;
+
+    // Compute the window: a crop, a tile, or the whole frame.
+    let crop = match (&f.crop, &f.tile) {
+        (Some(_), Some(_)) => usage!("--crop and --tile: give one or the other"),
+        (Some(c), None) => Some(parse_crop(c, width, height)?),
+        (None, Some(t)) => Some(parse_tile(t, width, height)?),
+        (None, None) => None,
+    };
+    if args.compare && (crop.is_some() || f.frames.is_some() || f.alpha_channel) {
+        usage!("--compare renders one whole frame: it does not combine with --crop, --tile, --frames or --alpha-channel");
+    }
+
+    // Compute the frames.
+    let frames = match f.frames {
+        None => None,
+        Some(0) => usage!("--frames 0: must be at least 1"),
+        Some(n) => {
+            if let Some(k) = f.frame {
+                if k >= n {
+                    usage!("--frame {k}: out of range for --frames {n} (0..={})", n - 1);
+                }
+            }
+            if !f.orbit.is_finite() {
+                usage!("--orbit {}: not a finite number of degrees", f.orbit);
+            }
+            Some(Frames { count: n, only: f.frame, orbit_deg: f.orbit })
+        }
+    };
+
+    // Compute the threads: at least 1, at most what the machine has.
+    let threads = match args.threads {
+        Some(0) => usage!("--threads 0: must be at least 1 (leave it out to use every core)"),
+        Some(t) => {
+            let cores = std::thread::available_parallelism().map_or(1, |n| n.get());
+            if t > cores {
+                eprintln!("phongrt: warning: --threads {t}: this machine has {cores} cores; using {cores}");
+                Some(cores)
+            } else {
+                Some(t)
+            }
+        }
+        None => None,
+    };
+
+    // Check the output (and the stats file) before any work.
+    let output =
+        if args.output.as_os_str() == "-" { Output::Stdout } else { Output::File(args.output.clone()) };
+    let plan_frames = frames;
+    let format = match &output {
+        Output::Stdout => {
+            if std::io::IsTerminal::is_terminal(&std::io::stdout()) {
+                usage!("-o -: stdout is a terminal; redirect it to a file or a pipe");
+            }
+            if plan_frames.is_some_and(|f| f.only.is_none() && f.count > 1) {
+                usage!(
+                    "-o -: {} frames cannot all go to stdout; pick one with --frame I",
+                    plan_frames.map_or(0, |f| f.count)
+                );
+            }
+            ImageFormat::Png
+        }
+        Output::File(p) => {
+            let fmt = ImageFormat::from_path(p).map_err(|e| Usage(format!("-o {}: {e}", p.display())))?;
+            let first = match plan_frames {
+                Some(fr) => frame_path(p, fr.only.unwrap_or(0)),
+                None => p.clone(),
+            };
+            image_out::check_writable(&first)?;
+            fmt
+        }
+    };
+    let stats = match f.stats.as_deref() {
+        None => None,
+        Some("json") => Some(StatsTarget::Print),
+        Some(file) => {
+            let p = PathBuf::from(file);
+            let dir = p.parent().filter(|d| !d.as_os_str().is_empty()).unwrap_or(Path::new("."));
+            if !dir.is_dir() {
+                usage!("--stats {file}: directory {} does not exist", dir.display());
+            }
+            Some(StatsTarget::File(p))
+        }
+    };
+
+    // Estimate the memory before starting.
+    let pixels = crop.map_or(width as u64 * height as u64, |c| c.width() as u64 * c.height() as u64)
+        * if args.compare { 3 } else { 1 };
+    let need = render::memory_estimate(pixels);
+    if let Some(budget) = memory_budget() {
+        if need > budget {
+            usage!(
+                "--width {width} --height {height}: needs about {} of memory, more than the {} available; \
+                 render it in tiles (--tile I/N) and stitch them",
+                gb(need),
+                gb(budget)
+            );
+        }
+    }
+    Ok(RenderPlan {
+        width,
+        height,
+        spp,
+        seed: f.seed,
+        threads,
+        crop,
+        frames,
+        output,
+        format,
+        stats,
+        alpha: f.alpha_channel,
+    })
+}
+
+/// Stage times of one run, in seconds.
+#[derive(Clone, Copy, Debug, Default)]
+struct Stages {
+    load: f64,
+    build: f64,
+}
+
 fn render_cmd(args: RenderArgs) -> anyhow::Result<()> {
-    anyhow::ensure!((0.0..=1.0).contains(&args.alpha), "--alpha {} is not in [0, 1]", args.alpha);
+    let t_start = Instant::now();
     // A .toml scene names its OBJ; an OBJ may take a scene file with --scene-file.
     let is_toml = args.scene.extension().is_some_and(|e| e.eq_ignore_ascii_case("toml"));
     let (obj_path, sf): (PathBuf, Option<SceneFile>) = if is_toml {
@@ -109,20 +476,23 @@ fn render_cmd(args: RenderArgs) -> anyhow::Result<()> {
     };
     // The scene file's path, for messages.
     let sf_path = if is_toml { args.scene.clone() } else { args.scene_file.clone().unwrap_or_default() };
-    let crease = sf.as_ref().and_then(|s| s.crease_angle).unwrap_or(args.load.crease_angle);
-    let input = load(&obj_path, &load_options(crease)?)?;
+    let plan = plan(&args, sf.as_ref())?;
     let overrides: Vec<(String, ObjectMode)> =
         args.objects.iter().map(|s| parse_object_override(s)).collect::<anyhow::Result<_>>()?;
+    let crease = sf.as_ref().and_then(|s| s.crease_angle).unwrap_or(args.load.crease_angle);
+    let input = load(&obj_path, &load_options(crease)?)?;
     for (name, _) in &overrides {
-        anyhow::ensure!(
-            name == "*" || input.meshes.iter().any(|m| m.name == *name),
-            "--object {name:?}: no such object (objects: {})",
-            input.meshes.iter().map(|m| m.name.as_str()).collect::<Vec<_>>().join(", ")
-        );
+        if !(name == "*" || input.meshes.iter().any(|m| m.name == *name)) {
+            usage!(
+                "--object {name:?}: no such object (objects: {})",
+                input.meshes.iter().map(|m| m.name.as_str()).collect::<Vec<_>>().join(", ")
+            );
+        }
     }
     if let Some(sf) = &sf {
         sf.check_object_names(&sf_path, input.meshes.iter().map(|m| m.name.as_str()))?;
     }
+    let mut stages = Stages { load: t_start.elapsed().as_secs_f64(), ..Stages::default() };
     let default_mode = match args.mode {
         Mode::Flat => ObjectMode::Flat,
         Mode::Phong => ObjectMode::Phong { alpha: args.alpha },
@@ -159,11 +529,15 @@ fn render_cmd(args: RenderArgs) -> anyhow::Result<()> {
         }
     };
 
-    let width = args.width.or(sf.as_ref().and_then(|s| s.render.width)).unwrap_or(800);
-    let height = args.height.or(sf.as_ref().and_then(|s| s.render.height)).unwrap_or(600);
-    let spp = args.spp.or(sf.as_ref().and_then(|s| s.render.spp)).unwrap_or(1);
-    let settings =
-        RenderSettings { width, height, spp, threads: args.threads, progress: !args.quiet, seed: 0 };
+    let (width, height) = (plan.width, plan.height);
+    let settings = RenderSettings {
+        width,
+        height,
+        spp: plan.spp,
+        threads: plan.threads,
+        progress: !args.quiet,
+        seed: plan.seed,
+    };
 
     // Shading choices: the command line over the scene file over the defaults.
     let sf_render = sf.as_ref().map(|s| &s.render);
@@ -245,6 +619,10 @@ fn render_cmd(args: RenderArgs) -> anyhow::Result<()> {
                 render::CameraProblem::Fov(_) if args.camera.fov.is_some() => "--fov".into(),
                 render::CameraProblem::Fov(_) => in_file("fov"),
             };
+            // A camera made bad by flags is bad usage; one from a file is bad input.
+            if src.contains("--") {
+                usage!("camera: {p} ({src})");
+            }
             bail!("camera: {p} ({src})");
         }
         Ok(camera)
@@ -255,8 +633,10 @@ fn render_cmd(args: RenderArgs) -> anyhow::Result<()> {
             ObjectMode::Phong { alpha } => alpha,
             ObjectMode::Flat => 1.0,
         };
+        let t = Instant::now();
         let flat = build(Some(ObjectMode::Flat))?;
         let phong = build(Some(ObjectMode::Phong { alpha }))?;
+        stages.build = t.elapsed().as_secs_f64();
         eprintln!("phongrt: {}", phong.effects());
         let camera = camera_for(&flat)?;
         let a = render::render(&flat, &camera, &settings)?;
@@ -270,18 +650,247 @@ fn render_cmd(args: RenderArgs) -> anyhow::Result<()> {
             &format!("flat {:.1} ms", ms(&a)),
             &format!("phong {:.1} ms ({:.2}x)", ms(&b), ms(&b) / ms(&a).max(1e-9)),
         );
-        img.save(&args.output)?;
-        eprintln!("phongrt: wrote {} (flat | phong | difference)", args.output.display());
-        return Ok(());
+        let t = Instant::now();
+        let bytes = image_out::encode(&img, plan.format, &EncodeOptions::default())?;
+        write_output(&plan.output, &bytes)?;
+        let write = t.elapsed().as_secs_f64();
+        eprintln!("phongrt: wrote {} (flat | phong | difference)", plan.output.name());
+        let frames = [
+            frame_stats(&plan, None, &plan.output, &a, write),
+            frame_stats(&plan, None, &plan.output, &b, 0.0),
+        ];
+        return write_stats(&plan, &stages, &phong, &frames, t_start);
     }
 
+    let t = Instant::now();
     let world = build(None)?;
+    stages.build = t.elapsed().as_secs_f64();
     eprintln!("phongrt: {}", world.effects());
-    let camera = camera_for(&world)?;
-    let out = render::render(&world, &camera, &settings)?;
-    out.image.save(&args.output)?;
-    report(&args.output.display().to_string(), &out);
+    let base = camera_for(&world)?;
+    let extent = RenderExtent { crop: plan.crop, alpha: plan.alpha };
+    let mut frames = Vec::new();
+    for (k, output) in plan.outputs() {
+        // Compute the frame's camera: an orbit of the eye about the look-at point.
+        let camera = match (k, plan.frames) {
+            (Some(k), Some(f)) => orbit(&base, f.orbit_deg * k as f32 / f.count as f32),
+            _ => base,
+        };
+        if let Some(p) = camera.problem() {
+            bail!("camera of frame {}: {p} (the orbit of --frames)", k.unwrap_or(0));
+        }
+        let out = render::render_extent(&world, &camera, &settings, &extent)?;
+        let t = Instant::now();
+        let window = out.window;
+        let opts =
+            EncodeOptions { alpha: out.alpha.as_deref(), window: (!window.is_full()).then_some(window) };
+        let bytes = image_out::encode(&out.image, plan.format, &opts)?;
+        write_output(&output, &bytes)?;
+        let write = t.elapsed().as_secs_f64();
+        if out.clamped_samples > 0 {
+            eprintln!(
+                "phongrt: warning: {}: {} samples had radiance that is not a finite f32 number (a light too \
+                 bright?): NaN made 0, the rest clamped to {:e}",
+                output.name(),
+                out.clamped_samples,
+                render::MAX_SAMPLE_RADIANCE
+            );
+        }
+        report(&output.name(), &out);
+        frames.push(frame_stats(&plan, k, &output, &out, write));
+    }
+    write_stats(&plan, &stages, &world, &frames, t_start)
+}
+
+/// The camera turned by `deg` about its up vector, around the look-at point.
+fn orbit(c: &Camera, deg: f32) -> Camera {
+    let axis = c.up.normalize_or_zero();
+    if axis == Vec3::ZERO {
+        return *c;
+    }
+    let q = glam::Quat::from_axis_angle(axis, deg.to_radians());
+    Camera { eye: c.look_at + q * (c.eye - c.look_at), ..*c }
+}
+
+/// Write the encoded image: a file replaced only by a complete one, or stdout, every write checked.
+fn write_output(output: &Output, bytes: &[u8]) -> anyhow::Result<()> {
+    match output {
+        Output::File(p) => image_out::write_atomically(p, bytes),
+        Output::Stdout => {
+            let mut out = std::io::stdout().lock();
+            out.write_all(bytes).context("-: cannot write the image to stdout")?;
+            out.flush().context("-: cannot write the image to stdout")
+        }
+    }
+}
+
+fn frame_stats(
+    plan: &RenderPlan,
+    k: Option<u32>,
+    output: &Output,
+    out: &RenderOutput,
+    write_s: f64,
+) -> serde_json::Value {
+    let r = &out.rays;
+    let secs = out.elapsed.as_secs_f64();
+    let w = out.window;
+    serde_json::json!({
+        "frame": k,
+        "output": output.name(),
+        "window": [w.x0, w.y0, w.x1, w.y1],
+        "width": out.image.width,
+        "height": out.image.height,
+        "threads": out.threads,
+        "rays": {
+            "primary": r.primary, "shadow": r.shadow, "reflection": r.reflection,
+            "refraction": r.refraction, "ambient_occlusion": r.ambient_occlusion,
+            "coverage": r.coverage, "total": r.total(),
+        },
+        "mrays_per_s": r.total() as f64 / secs.max(1e-9) / 1e6,
+        "seconds": { "render": secs, "write": write_s },
+        "clamped_samples": out.clamped_samples,
+        "format": format!("{:?}", plan.format).to_lowercase(),
+    })
+}
+
+fn write_stats(
+    plan: &RenderPlan,
+    stages: &Stages,
+    world: &World,
+    frames: &[serde_json::Value],
+    t_start: Instant,
+) -> anyhow::Result<()> {
+    let Some(target) = &plan.stats else {
+        return Ok(());
+    };
+    let e = world.effects();
+    let doc = serde_json::json!({
+        "full_width": plan.width,
+        "full_height": plan.height,
+        "spp": plan.spp,
+        "seed": plan.seed,
+        "effects": {
+            "summary": e.to_string(),
+            "shadow_lights": e.shadow_lights,
+            "soft_shadow_lights": e.soft_shadow_lights,
+            "reflective": e.reflective,
+            "refractive": e.refractive,
+            "ambient_occlusion": e.ambient_occlusion.map(|a| serde_json::json!({"samples": a.samples, "distance": a.distance})),
+            "max_depth": e.max_depth,
+        },
+        "seconds": { "load": stages.load, "build": stages.build, "total": t_start.elapsed().as_secs_f64() },
+        "frames": frames,
+    });
+    let text = serde_json::to_string_pretty(&doc)? + "\n";
+    match target {
+        StatsTarget::Print if plan.output == Output::Stdout => eprint!("{text}"),
+        StatsTarget::Print => {
+            let mut out = std::io::stdout().lock();
+            out.write_all(text.as_bytes())
+                .and_then(|_| out.flush())
+                .context("--stats json: cannot write to stdout")?;
+        }
+        StatsTarget::File(p) => image_out::write_atomically(p, text.as_bytes())?,
+    }
     Ok(())
+}
+
+/// Assemble tiles into one image: every pixel covered exactly once, all from one frame size.
+fn stitch_cmd(args: StitchArgs) -> anyhow::Result<()> {
+    let format = ImageFormat::from_path(&args.output).map_err(|e| Usage(format!("stitch: {e}")))?;
+    image_out::check_writable(&args.output)?;
+    let mut tiles: Vec<(String, Tile)> = Vec::new();
+    for p in &args.tiles {
+        let t = image_out::read_tile(p)?;
+        tiles.push((p.display().to_string(), t));
+    }
+    let (first_name, first) = &tiles[0];
+    let (fw, fh) = (first.window.full_width, first.window.full_height);
+    let kind = |t: &Tile| match t.pixels {
+        TilePixels::Srgb8 { channels, .. } => ("PNG", channels),
+        TilePixels::Linear { channels, .. } => ("EXR", channels),
+    };
+    for (name, t) in &tiles {
+        let w = &t.window;
+        if (w.full_width, w.full_height) != (fw, fh) {
+            usage!(
+                "stitch: {name}: tile {} is of a {}x{} frame, but {first_name} is of a {fw}x{fh} frame",
+                w.to_text(),
+                w.full_width,
+                w.full_height
+            );
+        }
+        if kind(t) != kind(first) {
+            usage!(
+                "stitch: {name}: a {} tile with {} channels, but {first_name} is {} with {}",
+                kind(t).0,
+                kind(t).1,
+                kind(first).0,
+                kind(first).1
+            );
+        }
+    }
+    for (i, (a_name, a)) in tiles.iter().enumerate() {
+        for (b_name, b) in &tiles[i + 1..] {
+            if a.window.overlaps(&b.window) {
+                usage!(
+                    "stitch: {b_name}: window {} overlaps {a_name}'s {}",
+                    b.window.to_text(),
+                    a.window.to_text()
+                );
+            }
+        }
+    }
+    let covered: u64 = tiles.iter().map(|(_, t)| t.window.width() as u64 * t.window.height() as u64).sum();
+    if covered != fw as u64 * fh as u64 {
+        usage!(
+            "stitch: the tiles cover {covered} of the {fw}x{fh} frame's {} pixels (missing tiles?)",
+            fw as u64 * fh as u64
+        );
+    }
+    let (is_png, channels) = (kind(first).0 == "PNG", kind(first).1);
+    let n = fw as usize * fh as usize * channels;
+    let bytes = if is_png {
+        let mut data = vec![0u8; n];
+        for (_, t) in &tiles {
+            let TilePixels::Srgb8 { data: src, .. } = &t.pixels else { unreachable!("checked above") };
+            blit_rows(&mut data, src, &t.window, fw, channels);
+        }
+        match format {
+            ImageFormat::Png => image_out::encode_png8(fw, fh, channels == 4, &data, None)?,
+            ImageFormat::Exr => usage!(
+                "stitch: {}: PNG tiles are 8-bit sRGB; stitch them to .png (EXR output needs EXR tiles)",
+                args.output.display()
+            ),
+        }
+    } else {
+        let mut data = vec![0f32; n];
+        for (_, t) in &tiles {
+            let TilePixels::Linear { data: src, .. } = &t.pixels else { unreachable!("checked above") };
+            blit_rows(&mut data, src, &t.window, fw, channels);
+        }
+        let mut img = Image::new(fw, fh);
+        let mut alpha = Vec::new();
+        for (i, px) in data.chunks_exact(channels).enumerate() {
+            img.pixels[i] = Vec3::new(px[0], px[1], px[2]);
+            if channels == 4 {
+                alpha.push(px[3]);
+            }
+        }
+        let opts = EncodeOptions { alpha: (channels == 4).then_some(&alpha[..]), window: None };
+        image_out::encode(&img, format, &opts)?
+    };
+    image_out::write_atomically(&args.output, &bytes)?;
+    eprintln!("phongrt: wrote {} ({fw}x{fh} from {} tiles)", args.output.display(), tiles.len());
+    Ok(())
+}
+
+/// Copy a tile's rows into the full frame.
+fn blit_rows<T: Copy>(dst: &mut [T], src: &[T], w: &Window, full_width: u32, channels: usize) {
+    let row = w.width() as usize * channels;
+    for (r, line) in src.chunks_exact(row).enumerate() {
+        let at = ((w.y0 as usize + r) * full_width as usize + w.x0 as usize) * channels;
+        dst[at..at + row].copy_from_slice(line);
+    }
 }
 
 fn apply_scene_file(world: &mut World, sf: &SceneFile) {
@@ -341,11 +950,12 @@ fn bench_cmd(args: cli::BenchArgs) -> anyhow::Result<()> {
         bench_scene, equal_depth_summary, equal_silhouette_summary, mem_total, plot, plot_scaling, to_csv,
         to_markdown, BenchMethod, BenchOptions,
     };
-    anyhow::ensure!(args.size >= 8 && args.size <= 4096, "--size {} is not in 8..=4096", args.size);
-    anyhow::ensure!(
-        args.levels.iter().all(|&l| (1..=4096).contains(&l)),
-        "--levels: each level must be in 1..=4096"
-    );
+    if !(8..=4096).contains(&args.size) {
+        usage!("--size {} is not in 8..=4096", args.size);
+    }
+    if let Some(l) = args.levels.iter().find(|&&l| !(1..=4096).contains(&l)) {
+        usage!("--levels {l}: each level must be in 1..=4096");
+    }
     let mut levels = args.levels.clone();
     levels.sort_unstable();
     levels.dedup();
@@ -355,7 +965,9 @@ fn bench_cmd(args: cli::BenchArgs) -> anyhow::Result<()> {
         .collect();
     let mut scenes: Vec<(String, scene::Mesh)> = Vec::new();
     for &s in &args.spheres {
-        anyhow::ensure!((3..=4096).contains(&s), "--spheres: {s} segments is not in 3..=4096");
+        if !(3..=4096).contains(&s) {
+            usage!("--spheres {s}: segments is not in 3..=4096");
+        }
         let m = scene::uv_sphere(s, (s / 2).max(2), 1.0);
         scenes.push((format!("sphere-{}", m.indices.len()), m));
     }
@@ -403,11 +1015,19 @@ fn bench_cmd(args: cli::BenchArgs) -> anyhow::Result<()> {
     );
     std::fs::write(args.out.join("bench.csv"), to_csv(&rows))?;
     std::fs::write(args.out.join("bench.md"), &md)?;
-    plot(&rows).save(&args.out.join("bench.png"))?;
-    plot_scaling(&rows).save(&args.out.join("bench-scaling.png"))?;
+    save_plot(&plot(&rows)?, &args.out.join("bench.png"))?;
+    save_plot(&plot_scaling(&rows)?, &args.out.join("bench-scaling.png"))?;
     print!("{md}");
     eprintln!("phongrt: wrote {}/bench.csv, bench.md, bench.png, bench-scaling.png", args.out.display());
     Ok(())
+}
+
+/// A plot saved as PNG through image 0.25's encoder, written with `write_atomically`.
+fn save_plot(img: &image::RgbImage, path: &Path) -> anyhow::Result<()> {
+    let mut bytes = Vec::new();
+    img.write_to(&mut std::io::Cursor::new(&mut bytes), image::ImageFormat::Png)
+        .with_context(|| format!("{}: cannot encode PNG", path.display()))?;
+    image_out::write_atomically(path, &bytes)
 }
 
 fn report(what: &str, out: &RenderOutput) {
@@ -426,9 +1046,30 @@ fn info_cmd(args: InfoArgs) -> anyhow::Result<()> {
     let s = load(&args.scene, &load_options(args.load.crease_angle)?)?;
     let device = Device::new().context("cannot start Embree")?;
     let (major, minor, patch) = device.version();
+    let st = &s.stats;
+    let (lo, hi) = s.bounds();
+    if args.json {
+        let doc = serde_json::json!({
+            "file": args.scene.display().to_string(),
+            "embree": { "version": format!("{major}.{minor}.{patch}"), "headers": embree::header_version().to_string(), "isa": device.isa().to_string() },
+            "objects": s.meshes.len(),
+            "materials": s.materials.len(),
+            "vertices": st.vertices,
+            "triangles": st.triangles,
+            "normals": { "from_file": st.normals_from_file, "computed": st.normals_computed },
+            "edges": { "smooth": st.smooth_edges, "crease": st.crease_edges, "border": st.border_edges, "nonmanifold": st.nonmanifold_edges },
+            "degenerate_skipped": st.degenerate_skipped,
+            "bounds": [lo.to_array(), hi.to_array()],
+            "meshes": s.meshes.iter().map(|m| serde_json::json!({
+                "name": m.name, "vertices": m.positions.len(), "triangles": m.indices.len(),
+                "normals": format!("{:?}", m.normals_source),
+            })).collect::<Vec<_>>(),
+        });
+        println!("{}", serde_json::to_string_pretty(&doc)?);
+        return Ok(());
+    }
     println!("file: {}", args.scene.display());
     println!("embree: {major}.{minor}.{patch} (headers {}), ISA {}", embree::header_version(), device.isa());
-    let st = &s.stats;
     println!("objects: {}", s.meshes.len());
     println!("materials: {}", s.materials.len());
     println!("vertices: {}", st.vertices);
@@ -441,7 +1082,6 @@ fn info_cmd(args: InfoArgs) -> anyhow::Result<()> {
     if st.degenerate_skipped > 0 {
         println!("skipped: {} degenerate triangles", st.degenerate_skipped);
     }
-    let (lo, hi) = s.bounds();
     println!("bounds: [{:.6}, {:.6}, {:.6}] .. [{:.6}, {:.6}, {:.6}]", lo.x, lo.y, lo.z, hi.x, hi.y, hi.z);
     for m in &s.meshes {
         println!(

@@ -1,10 +1,12 @@
-//! Linear float images, sRGB PNG and linear EXR output.
+//! Linear float images; sRGB PNG and compressed linear EXR encoding (with an optional alpha
+//! channel and, for crops and tiles, the window's place in the full frame); writing that never
+//! loses an output while reporting success; and reading tiles back for `stitch`.
 
-use std::path::Path;
+use std::io::Write;
+use std::path::{Path, PathBuf};
 
+use anyhow::{bail, Context};
 use glam::Vec3;
-
-use super::RenderError;
 
 /// A linear-light RGB image, row-major from the top-left pixel.
 #[derive(Clone, Debug, PartialEq)]
@@ -24,6 +26,11 @@ pub fn linear_to_srgb(c: f32) -> f32 {
     }
 }
 
+/// One linear value as an 8-bit sRGB byte.
+pub fn srgb8(c: f32) -> u8 {
+    (linear_to_srgb(c) * 255.0 + 0.5) as u8
+}
+
 impl Image {
     /// A black image.
     pub fn new(width: u32, height: u32) -> Self {
@@ -31,19 +38,16 @@ impl Image {
     }
 
     pub fn get(&self, x: u32, y: u32) -> Vec3 {
-        self.pixels[(y * self.width + x) as usize]
+        self.pixels[(y as usize) * self.width as usize + x as usize]
     }
 
     pub fn set(&mut self, x: u32, y: u32, c: Vec3) {
-        self.pixels[(y * self.width + x) as usize] = c;
+        self.pixels[(y as usize) * self.width as usize + x as usize] = c;
     }
 
     /// 8-bit sRGB bytes, RGB interleaved.
     pub fn to_srgb8(&self) -> Vec<u8> {
-        self.pixels
-            .iter()
-            .flat_map(|c| c.to_array().map(|x| (linear_to_srgb(x) * 255.0 + 0.5) as u8))
-            .collect()
+        self.pixels.iter().flat_map(|c| c.to_array().map(srgb8)).collect()
     }
 
     /// Copy `other` into this image with its top-left corner at `(x0, y0)` (clipped).
@@ -55,32 +59,399 @@ impl Image {
         }
     }
 
-    /// Write as sRGB PNG or linear EXR, chosen by the extension.
-    pub fn save(&self, path: &Path) -> Result<(), RenderError> {
-        let ext = path.extension().and_then(|e| e.to_str()).map(|e| e.to_ascii_lowercase());
-        let write = |format: &'static str| {
-            move |source| RenderError::ImageWrite { path: path.to_path_buf(), format, source }
-        };
-        // A pixel buffer whose length does not match the size (the fields are public).
-        let mismatch = |format: &'static str| {
-            write(format)(image::ImageError::Parameter(image::error::ParameterError::from_kind(
-                image::error::ParameterErrorKind::DimensionMismatch,
-            )))
-        };
-        match ext.as_deref() {
-            Some("png") => {
-                let img = image::RgbImage::from_raw(self.width, self.height, self.to_srgb8())
-                    .ok_or_else(|| mismatch("PNG"))?;
-                img.save_with_format(path, image::ImageFormat::Png).map_err(write("PNG"))?;
-            }
-            Some("exr") => {
-                let data: Vec<f32> = self.pixels.iter().flat_map(|c| c.to_array()).collect();
-                let img = image::Rgb32FImage::from_raw(self.width, self.height, data)
-                    .ok_or_else(|| mismatch("EXR"))?;
-                img.save_with_format(path, image::ImageFormat::OpenExr).map_err(write("EXR"))?;
-            }
-            _ => return Err(RenderError::ImageExtension { path: path.to_path_buf() }),
-        }
-        Ok(())
+    /// Write as sRGB PNG or compressed linear EXR, chosen by the extension, with
+    /// [`write_atomically`]: the file at `path` is replaced only by a complete image.
+    pub fn save(&self, path: &Path) -> anyhow::Result<()> {
+        let format = ImageFormat::from_path(path)?;
+        let bytes = encode(self, format, &EncodeOptions::default())?;
+        write_atomically(path, &bytes)
     }
+}
+
+/// The image file formats written.
+#[derive(Clone, Copy, Debug, PartialEq, Eq)]
+pub enum ImageFormat {
+    /// 8-bit sRGB PNG (RGB, or RGBA with straight alpha).
+    Png,
+    /// Linear 32-bit float OpenEXR, ZIP compressed (RGB, or RGBA with premultiplied alpha).
+    Exr,
+}
+
+impl ImageFormat {
+    /// The format named by a path's extension (`.png` or `.exr`, any case).
+    pub fn from_path(path: &Path) -> anyhow::Result<ImageFormat> {
+        let ext = path.extension().and_then(|e| e.to_str()).map(|e| e.to_ascii_lowercase());
+        match ext.as_deref() {
+            Some("png") => Ok(ImageFormat::Png),
+            Some("exr") => Ok(ImageFormat::Exr),
+            _ => bail!("{}: unknown image extension (use .png or .exr)", path.display()),
+        }
+    }
+}
+
+/// A crop window `[x0, x1) × [y0, y1)` of a `full_width × full_height` frame.
+#[derive(Clone, Copy, Debug, PartialEq, Eq)]
+pub struct Window {
+    pub x0: u32,
+    pub y0: u32,
+    pub x1: u32,
+    pub y1: u32,
+    pub full_width: u32,
+    pub full_height: u32,
+}
+
+/// The PNG text-chunk keyword that records a tile's [`Window`].
+pub const WINDOW_KEY: &str = "phongrt:window";
+
+impl Window {
+    /// The whole frame.
+    pub fn full(width: u32, height: u32) -> Window {
+        Window { x0: 0, y0: 0, x1: width, y1: height, full_width: width, full_height: height }
+    }
+
+    pub fn width(&self) -> u32 {
+        self.x1 - self.x0
+    }
+
+    pub fn height(&self) -> u32 {
+        self.y1 - self.y0
+    }
+
+    pub fn is_full(&self) -> bool {
+        *self == Window::full(self.full_width, self.full_height)
+    }
+
+    /// Whether two windows share a pixel.
+    pub fn overlaps(&self, o: &Window) -> bool {
+        self.x0 < o.x1 && o.x0 < self.x1 && self.y0 < o.y1 && o.y0 < self.y1
+    }
+
+    /// `"X0,Y0,X1,Y1 of WxH"`, as stored in tile files and shown in messages.
+    pub fn to_text(&self) -> String {
+        format!("{},{},{},{} of {}x{}", self.x0, self.y0, self.x1, self.y1, self.full_width, self.full_height)
+    }
+
+    /// The inverse of [`Window::to_text`].
+    pub fn from_text(s: &str) -> Option<Window> {
+        let (b, full) = s.split_once(" of ")?;
+        let (fw, fh) = full.split_once('x')?;
+        let v: Vec<u32> = b.split(',').map(|t| t.trim().parse().ok()).collect::<Option<_>>()?;
+        let w = Window {
+            x0: *v.first()?,
+            y0: *v.get(1)?,
+            x1: *v.get(2)?,
+            y1: *v.get(3)?,
+            full_width: fw.parse().ok()?,
+            full_height: fh.parse().ok()?,
+        };
+        (v.len() == 4 && w.x0 < w.x1 && w.y0 < w.y1 && w.x1 <= w.full_width && w.y1 <= w.full_height)
+            .then_some(w)
+    }
+}
+
+/// What goes into an image file besides the colours.
+#[derive(Clone, Copy, Debug, Default)]
+pub struct EncodeOptions<'a> {
+    /// Coverage per pixel in [0, 1]; the colours are then premultiplied by it (as EXR expects),
+    /// and PNG stores them divided back (straight alpha, as PNG expects).
+    pub alpha: Option<&'a [f32]>,
+    /// Where the image sits in its full frame (a crop or tile), recorded for `stitch`.
+    pub window: Option<Window>,
+}
+
+/// Encode an image in memory.
+pub fn encode(img: &Image, format: ImageFormat, opts: &EncodeOptions) -> anyhow::Result<Vec<u8>> {
+    if let Some(a) = opts.alpha {
+        anyhow::ensure!(
+            a.len() == img.pixels.len(),
+            "alpha has {} values for {} pixels",
+            a.len(),
+            img.pixels.len()
+        );
+    }
+    match format {
+        ImageFormat::Png => {
+            let channels = if opts.alpha.is_some() { 4 } else { 3 };
+            let mut data = Vec::with_capacity(img.pixels.len() * channels);
+            for (i, c) in img.pixels.iter().enumerate() {
+                match opts.alpha {
+                    None => data.extend(c.to_array().map(srgb8)),
+                    Some(a) => {
+                        let a = a[i].clamp(0.0, 1.0);
+                        let straight = if a > 0.0 { *c / a } else { Vec3::ZERO };
+                        data.extend(straight.to_array().map(srgb8));
+                        data.push((a * 255.0 + 0.5) as u8);
+                    }
+                }
+            }
+            encode_png8(img.width, img.height, channels == 4, &data, opts.window)
+        }
+        ImageFormat::Exr => encode_exr(img, opts),
+    }
+}
+
+/// PNG from 8-bit sRGB bytes (RGB or RGBA interleaved).
+pub fn encode_png8(
+    w: u32,
+    h: u32,
+    rgba: bool,
+    data: &[u8],
+    window: Option<Window>,
+) -> anyhow::Result<Vec<u8>> {
+    let mut out = Vec::new();
+    {
+        let mut enc = png::Encoder::new(&mut out, w, h);
+        enc.set_color(if rgba { png::ColorType::Rgba } else { png::ColorType::Rgb });
+        enc.set_depth(png::BitDepth::Eight);
+        enc.set_source_srgb(png::SrgbRenderingIntent::Perceptual);
+        if let Some(win) = window {
+            enc.add_text_chunk(WINDOW_KEY.to_string(), win.to_text()).context("cannot encode PNG")?;
+        }
+        let mut writer = enc.write_header().context("cannot encode PNG")?;
+        writer.write_image_data(data).context("cannot encode PNG")?;
+        writer.finish().context("cannot encode PNG")?;
+    }
+    Ok(out)
+}
+
+fn encode_exr(img: &Image, opts: &EncodeOptions) -> anyhow::Result<Vec<u8>> {
+    use exr::prelude::*;
+    let (w, h) = (img.width as usize, img.height as usize);
+    let win = opts.window.unwrap_or(Window::full(img.width, img.height));
+    let mut attrs = LayerAttributes::named("");
+    attrs.layer_position = Vec2(win.x0 as i32, win.y0 as i32);
+    attrs.software_name = Some(Text::from("phongrt"));
+    let mut buf = Vec::new();
+    let px = |p: Vec2<usize>| img.pixels[p.y() * w + p.x()];
+    let result = match opts.alpha {
+        Some(alpha) => {
+            let layer = Layer::new(
+                (w, h),
+                attrs,
+                Encoding::SMALL_LOSSLESS,
+                SpecificChannels::rgba(|p: Vec2<usize>| {
+                    let (c, a) = (px(p), alpha[p.y() * w + p.x()]);
+                    (c.x, c.y, c.z, a)
+                }),
+            );
+            let mut image = exr::image::Image::from_layer(layer);
+            image.attributes.display_window =
+                IntegerBounds::new((0, 0), (win.full_width as usize, win.full_height as usize));
+            image.write().to_buffered(std::io::Cursor::new(&mut buf))
+        }
+        None => {
+            let layer = Layer::new(
+                (w, h),
+                attrs,
+                Encoding::SMALL_LOSSLESS,
+                SpecificChannels::rgb(|p: Vec2<usize>| {
+                    let c = px(p);
+                    (c.x, c.y, c.z)
+                }),
+            );
+            let mut image = exr::image::Image::from_layer(layer);
+            image.attributes.display_window =
+                IntegerBounds::new((0, 0), (win.full_width as usize, win.full_height as usize));
+            image.write().to_buffered(std::io::Cursor::new(&mut buf))
+        }
+    };
+    result.context("cannot encode EXR")?;
+    Ok(buf)
+}
+
+/// The file-size limit of this process (`ulimit -f`), in bytes, where the system says.
+fn file_size_limit() -> Option<u64> {
+    let limits = std::fs::read_to_string("/proc/self/limits").ok()?;
+    let line = limits.lines().find(|l| l.starts_with("Max file size"))?;
+    line.split_whitespace().nth(3)?.parse().ok()
+}
+
+/// Write `bytes` to `path` so that either the whole file is there or an error is returned:
+/// a regular file (or a new one) is written to a temporary file in the same directory, every
+/// write and the final sync checked, then renamed over `path`. A path that is not a regular
+/// file (a device such as `/dev/stdout` or `/dev/full`, a FIFO) is written directly, every write
+/// and the flush checked. An image larger than the file-size limit (`ulimit -f`) is refused
+/// before anything is written.
+pub fn write_atomically(path: &Path, bytes: &[u8]) -> anyhow::Result<()> {
+    let name = path.display();
+    // Follow a symlink to where the bytes will really go.
+    let target: PathBuf = std::fs::canonicalize(path).unwrap_or_else(|_| path.to_path_buf());
+    let meta = std::fs::metadata(&target).ok();
+    if meta.as_ref().is_some_and(|m| m.is_dir()) {
+        bail!("{name}: is a directory");
+    }
+    if meta.as_ref().is_some_and(|m| !m.is_file()) {
+        let mut f = std::fs::OpenOptions::new()
+            .write(true)
+            .open(&target)
+            .with_context(|| format!("{name}: cannot open for writing"))?;
+        f.write_all(bytes).with_context(|| format!("{name}: cannot write"))?;
+        f.flush().with_context(|| format!("{name}: cannot write"))?;
+        return Ok(());
+    }
+    if let Some(limit) = file_size_limit() {
+        if bytes.len() as u64 > limit {
+            bail!(
+                "{name}: the image is {} bytes, more than the file-size limit (ulimit -f) of {limit} bytes",
+                bytes.len()
+            );
+        }
+    }
+    let dir = match target.parent() {
+        Some(d) if !d.as_os_str().is_empty() => d.to_path_buf(),
+        _ => PathBuf::from("."),
+    };
+    let file_name = target.file_name().map(|n| n.to_string_lossy().into_owned()).unwrap_or_default();
+    let tmp = dir.join(format!(".{file_name}.{}.tmp", std::process::id()));
+    let write = || -> std::io::Result<()> {
+        let mut f = std::fs::OpenOptions::new().write(true).create_new(true).open(&tmp)?;
+        f.write_all(bytes)?;
+        f.sync_all()?;
+        drop(f);
+        std::fs::rename(&tmp, &target)
+    };
+    if let Err(e) = write() {
+        let _ = std::fs::remove_file(&tmp);
+        return Err(e).with_context(|| format!("{name}: cannot write"));
+    }
+    Ok(())
+}
+
+/// Check, before any work, that an image can be written at `path`: a known extension, an
+/// existing directory in which a file can be created (tried), and not a directory itself.
+pub fn check_writable(path: &Path) -> anyhow::Result<ImageFormat> {
+    let format = ImageFormat::from_path(path)?;
+    let name = path.display();
+    if std::fs::metadata(path).is_ok_and(|m| m.is_dir()) {
+        bail!("{name}: is a directory");
+    }
+    let target: PathBuf = std::fs::canonicalize(path).unwrap_or_else(|_| path.to_path_buf());
+    if std::fs::metadata(&target).is_ok_and(|m| !m.is_file()) {
+        // A device or FIFO: writable if it opens for writing.
+        std::fs::OpenOptions::new()
+            .write(true)
+            .open(&target)
+            .with_context(|| format!("{name}: cannot open for writing"))?;
+        return Ok(format);
+    }
+    let dir = match target.parent() {
+        Some(d) if !d.as_os_str().is_empty() => d.to_path_buf(),
+        _ => PathBuf::from("."),
+    };
+    match std::fs::metadata(&dir) {
+        Ok(m) if m.is_dir() => {}
+        Ok(_) => bail!("{name}: {} is not a directory", dir.display()),
+        Err(_) => bail!("{name}: directory {} does not exist", dir.display()),
+    }
+    let probe = dir.join(format!(".phongrt-probe.{}.tmp", std::process::id()));
+    match std::fs::OpenOptions::new().write(true).create_new(true).open(&probe) {
+        Ok(_) => {
+            let _ = std::fs::remove_file(&probe);
+        }
+        Err(e) => bail!("{name}: directory {} is not writable ({e})", dir.display()),
+    }
+    Ok(format)
+}
+
+/// Pixels read back from an image file: 8-bit sRGB from PNG, linear floats from EXR.
+#[derive(Clone, Debug, PartialEq)]
+pub enum TilePixels {
+    /// Interleaved bytes, `channels` (3 or 4) per pixel.
+    Srgb8 { channels: usize, data: Vec<u8> },
+    /// Interleaved floats, `channels` (3 or 4) per pixel.
+    Linear { channels: usize, data: Vec<f32> },
+}
+
+/// An image file read back with its window (a whole frame when it records none).
+#[derive(Clone, Debug, PartialEq)]
+pub struct Tile {
+    pub window: Window,
+    pub pixels: TilePixels,
+    /// Whether the file recorded a window (PNG text chunk, or an EXR display window).
+    pub has_window: bool,
+}
+
+/// Read a PNG or EXR written by `phongrt render` (any crop or tile of it).
+pub fn read_tile(path: &Path) -> anyhow::Result<Tile> {
+    let name = path.display();
+    match ImageFormat::from_path(path)? {
+        ImageFormat::Png => {
+            let f = std::fs::File::open(path).with_context(|| format!("{name}: cannot read"))?;
+            let mut dec = png::Decoder::new(std::io::BufReader::new(f));
+            dec.set_transformations(png::Transformations::IDENTITY);
+            let mut reader = dec.read_info().with_context(|| format!("{name}: not a readable PNG"))?;
+            let info = reader.info();
+            let (w, h) = (info.width, info.height);
+            let channels = match (info.color_type, info.bit_depth) {
+                (png::ColorType::Rgb, png::BitDepth::Eight) => 3,
+                (png::ColorType::Rgba, png::BitDepth::Eight) => 4,
+                (c, d) => bail!("{name}: {c:?} {d:?} PNG is not an image phongrt writes (8-bit RGB/RGBA)"),
+            };
+            let text = info.uncompressed_latin1_text.iter().find(|t| t.keyword == WINDOW_KEY);
+            let (window, has_window) = match text {
+                Some(t) => (
+                    Window::from_text(&t.text)
+                        .with_context(|| format!("{name}: malformed {WINDOW_KEY} {:?}", t.text))?,
+                    true,
+                ),
+                None => (Window::full(w, h), false),
+            };
+            let mut data = vec![0u8; reader.output_buffer_size().context("PNG too large")?];
+            reader.next_frame(&mut data).with_context(|| format!("{name}: not a readable PNG"))?;
+            data.truncate(w as usize * h as usize * channels);
+            check_size(path, &window, w, h)?;
+            Ok(Tile { window, pixels: TilePixels::Srgb8 { channels, data }, has_window })
+        }
+        ImageFormat::Exr => {
+            use exr::prelude::*;
+            let img = read()
+                .no_deep_data()
+                .largest_resolution_level()
+                .rgba_channels(
+                    |res, ch: &RgbaChannels| (res, ch.3.is_some(), vec![0f32; res.area() * 4]),
+                    |(res, _, buf): &mut (Vec2<usize>, bool, Vec<f32>),
+                     p: Vec2<usize>,
+                     (r, g, b, a): (f32, f32, f32, f32)| {
+                        let i = (p.y() * res.x() + p.x()) * 4;
+                        buf[i..i + 4].copy_from_slice(&[r, g, b, a]);
+                    },
+                )
+                .first_valid_layer()
+                .all_attributes()
+                .from_file(path)
+                .with_context(|| format!("{name}: not a readable EXR"))?;
+            let layer = &img.layer_data;
+            let (res, has_alpha, buf) = &layer.channel_data.pixels;
+            let pos = layer.attributes.layer_position;
+            let disp = img.attributes.display_window;
+            let (w, h) = (res.x() as u32, res.y() as u32);
+            anyhow::ensure!(pos.x() >= 0 && pos.y() >= 0, "{name}: negative layer position");
+            let window = Window {
+                x0: pos.x() as u32,
+                y0: pos.y() as u32,
+                x1: pos.x() as u32 + w,
+                y1: pos.y() as u32 + h,
+                full_width: disp.size.x() as u32,
+                full_height: disp.size.y() as u32,
+            };
+            let channels = if *has_alpha { 4 } else { 3 };
+            let data: Vec<f32> = if *has_alpha {
+                buf.clone()
+            } else {
+                buf.chunks_exact(4).flat_map(|c| [c[0], c[1], c[2]]).collect()
+            };
+            check_size(path, &window, w, h)?;
+            Ok(Tile { window, pixels: TilePixels::Linear { channels, data }, has_window: !window.is_full() })
+        }
+    }
+}
+
+fn check_size(path: &Path, win: &Window, w: u32, h: u32) -> anyhow::Result<()> {
+    anyhow::ensure!(
+        win.width() == w && win.height() == h && win.x1 <= win.full_width && win.y1 <= win.full_height,
+        "{}: window {} does not match its {w}x{h} pixels",
+        path.display(),
+        win.to_text()
+    );
+    Ok(())
 }

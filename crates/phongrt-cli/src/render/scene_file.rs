@@ -188,6 +188,10 @@ pub struct AoSection {
     pub distance: f32,
 }
 
+/// The deepest reflection/refraction recursion a scene file may ask for: with both mirror and
+/// transmission the ray tree doubles per level, so 16 levels can already cost 65536 rays a sample.
+pub const MAX_DEPTH: u32 = 16;
+
 impl SceneFile {
     /// Read and check a scene file.
     /// Only regular files of at most [`MAX_SCENE_FILE_BYTES`] are read (a FIFO or a device is
@@ -313,8 +317,11 @@ impl SceneFile {
             }
         }
         if let Some(d) = r.max_depth {
-            if d > 64 {
-                return Err(bad("render.max_depth".into(), format!("{d} is more than 64")));
+            if d > MAX_DEPTH {
+                return Err(bad(
+                    "render.max_depth".into(),
+                    format!("{d} is more than {MAX_DEPTH} (the ray tree can double at each level)"),
+                ));
             }
         }
         for (k, v) in [("render.background", r.background), ("render.ambient", r.ambient)] {

@@ -1,81 +1,91 @@
-//! A tiny 5×7 bitmap font, to write labels (mode, time) into comparison images.
+//! Labels in DejaVu Sans (embedded; licence in assets/fonts/DejaVuSans-LICENSE.txt), rasterised
+//! with ab_glyph and blended into linear images: the mode and time on `--compare` panels.
 
+use ab_glyph::{point, Font, FontRef, PxScale, ScaleFont};
 use glam::Vec3;
 
 use super::Image;
 
-/// Glyph rows, 5 bits each (bit 4 = leftmost column).
-fn glyph(c: char) -> [u8; 7] {
-    match c.to_ascii_lowercase() {
-        '0' => [0x0E, 0x11, 0x13, 0x15, 0x19, 0x11, 0x0E],
-        '1' => [0x04, 0x0C, 0x04, 0x04, 0x04, 0x04, 0x0E],
-        '2' => [0x0E, 0x11, 0x01, 0x02, 0x04, 0x08, 0x1F],
-        '3' => [0x1F, 0x02, 0x04, 0x02, 0x01, 0x11, 0x0E],
-        '4' => [0x02, 0x06, 0x0A, 0x12, 0x1F, 0x02, 0x02],
-        '5' => [0x1F, 0x10, 0x1E, 0x01, 0x01, 0x11, 0x0E],
-        '6' => [0x06, 0x08, 0x10, 0x1E, 0x11, 0x11, 0x0E],
-        '7' => [0x1F, 0x01, 0x02, 0x04, 0x08, 0x08, 0x08],
-        '8' => [0x0E, 0x11, 0x11, 0x0E, 0x11, 0x11, 0x0E],
-        '9' => [0x0E, 0x11, 0x11, 0x0F, 0x01, 0x02, 0x0C],
-        'a' => [0x00, 0x00, 0x0E, 0x01, 0x0F, 0x11, 0x0F],
-        'b' => [0x10, 0x10, 0x16, 0x19, 0x11, 0x11, 0x1E],
-        'c' => [0x00, 0x00, 0x0E, 0x10, 0x10, 0x11, 0x0E],
-        'd' => [0x01, 0x01, 0x0D, 0x13, 0x11, 0x11, 0x0F],
-        'e' => [0x00, 0x00, 0x0E, 0x11, 0x1F, 0x10, 0x0E],
-        'f' => [0x06, 0x09, 0x08, 0x1C, 0x08, 0x08, 0x08],
-        'g' => [0x00, 0x0F, 0x11, 0x11, 0x0F, 0x01, 0x0E],
-        'h' => [0x10, 0x10, 0x16, 0x19, 0x11, 0x11, 0x11],
-        'i' => [0x04, 0x00, 0x0C, 0x04, 0x04, 0x04, 0x0E],
-        'j' => [0x02, 0x00, 0x06, 0x02, 0x02, 0x12, 0x0C],
-        'k' => [0x10, 0x10, 0x12, 0x14, 0x18, 0x14, 0x12],
-        'l' => [0x0C, 0x04, 0x04, 0x04, 0x04, 0x04, 0x0E],
-        'm' => [0x00, 0x00, 0x1A, 0x15, 0x15, 0x11, 0x11],
-        'n' => [0x00, 0x00, 0x16, 0x19, 0x11, 0x11, 0x11],
-        'o' => [0x00, 0x00, 0x0E, 0x11, 0x11, 0x11, 0x0E],
-        'p' => [0x00, 0x00, 0x1E, 0x11, 0x1E, 0x10, 0x10],
-        'q' => [0x00, 0x00, 0x0D, 0x13, 0x0F, 0x01, 0x01],
-        'r' => [0x00, 0x00, 0x16, 0x19, 0x10, 0x10, 0x10],
-        's' => [0x00, 0x00, 0x0E, 0x10, 0x0E, 0x01, 0x1E],
-        't' => [0x08, 0x08, 0x1C, 0x08, 0x08, 0x09, 0x06],
-        'u' => [0x00, 0x00, 0x11, 0x11, 0x11, 0x13, 0x0D],
-        'v' => [0x00, 0x00, 0x11, 0x11, 0x11, 0x0A, 0x04],
-        'w' => [0x00, 0x00, 0x11, 0x11, 0x15, 0x15, 0x0A],
-        'x' => [0x00, 0x00, 0x11, 0x0A, 0x04, 0x0A, 0x11],
-        'y' => [0x00, 0x00, 0x11, 0x11, 0x0F, 0x01, 0x0E],
-        'z' => [0x00, 0x00, 0x1F, 0x02, 0x04, 0x08, 0x1F],
-        '.' => [0x00, 0x00, 0x00, 0x00, 0x00, 0x0C, 0x0C],
-        ',' => [0x00, 0x00, 0x00, 0x00, 0x0C, 0x04, 0x08],
-        ':' => [0x00, 0x0C, 0x0C, 0x00, 0x0C, 0x0C, 0x00],
-        '=' => [0x00, 0x00, 0x1F, 0x00, 0x1F, 0x00, 0x00],
-        '-' => [0x00, 0x00, 0x00, 0x1F, 0x00, 0x00, 0x00],
-        '+' => [0x00, 0x04, 0x04, 0x1F, 0x04, 0x04, 0x00],
-        '(' => [0x02, 0x04, 0x08, 0x08, 0x08, 0x04, 0x02],
-        ')' => [0x08, 0x04, 0x02, 0x02, 0x02, 0x04, 0x08],
-        '/' => [0x00, 0x01, 0x02, 0x04, 0x08, 0x10, 0x00],
-        '*' => [0x00, 0x11, 0x0A, 0x04, 0x0A, 0x11, 0x00],
-        _ => [0; 7],
+/// DejaVu Sans (Debian's fonts-dejavu-core), used for labels and bench plots.
+pub static DEJAVU_SANS: &[u8] = include_bytes!("../../assets/fonts/DejaVuSans.ttf");
+
+fn font() -> FontRef<'static> {
+    // The embedded font is a valid TrueType file; a test parses it.
+    FontRef::try_from_slice(DEJAVU_SANS).expect("embedded DejaVu Sans parses")
+}
+
+/// The width in pixels of `text` at a font size of `size_px` pixels.
+pub fn text_width(text: &str, size_px: f32) -> f32 {
+    let font = font();
+    let f = font.as_scaled(PxScale::from(size_px));
+    let mut x = 0.0;
+    let mut prev = None;
+    for ch in text.chars() {
+        let id = f.glyph_id(ch);
+        if let Some(p) = prev {
+            x += f.kern(p, id);
+        }
+        x += f.h_advance(id);
+        prev = Some(id);
+    }
+    x
+}
+
+/// Draw `text` with its top-left corner at `(x, y)`, `size_px` pixels tall (ascent to descent),
+/// anti-aliased: each pixel is blended toward `color` by the glyph's coverage.
+pub fn draw_text(img: &mut Image, text: &str, x: u32, y: u32, size_px: f32, color: Vec3) {
+    let font = font();
+    let f = font.as_scaled(PxScale::from(size_px));
+    let baseline = y as f32 + f.ascent();
+    let mut caret = x as f32;
+    let mut prev = None;
+    for ch in text.chars() {
+        let id = f.glyph_id(ch);
+        if let Some(p) = prev {
+            caret += f.kern(p, id);
+        }
+        let glyph = id.with_scale_and_position(PxScale::from(size_px), point(caret, baseline));
+        caret += f.h_advance(id);
+        prev = Some(id);
+        let Some(outlined) = font.outline_glyph(glyph) else {
+            continue; // a space
+        };
+        let b = outlined.px_bounds();
+        outlined.draw(|gx, gy, cov| {
+            let (px, py) = (b.min.x as i64 + gx as i64, b.min.y as i64 + gy as i64);
+            if px >= 0 && py >= 0 && (px as u32) < img.width && (py as u32) < img.height {
+                let (px, py) = (px as u32, py as u32);
+                let c = img.get(px, py);
+                img.set(px, py, c + (color - c) * cov.clamp(0.0, 1.0));
+            }
+        });
     }
 }
 
-/// Draw `text` with its top-left corner at `(x, y)`, each font pixel `scale` image pixels.
-pub fn draw_text(img: &mut Image, text: &str, x: u32, y: u32, scale: u32, color: Vec3) {
-    let mut cx = x;
-    for ch in text.chars() {
-        let g = glyph(ch);
-        for (row, bits) in g.iter().enumerate() {
-            for col in 0..5u32 {
-                if bits & (0x10 >> col) != 0 {
-                    for dy in 0..scale {
-                        for dx in 0..scale {
-                            let (px, py) = (cx + col * scale + dx, y + row as u32 * scale + dy);
-                            if px < img.width && py < img.height {
-                                img.set(px, py, color);
-                            }
-                        }
-                    }
-                }
-            }
+/// A label on a dark box, readable on any image.
+pub fn draw_label(img: &mut Image, text: &str, x: u32, y: u32, size_px: f32) {
+    let (w, h) = (text_width(text, size_px).ceil() as u32 + 8, (size_px * 1.25).ceil() as u32 + 4);
+    for yy in y..(y + h).min(img.height) {
+        for xx in x..(x + w).min(img.width) {
+            let c = img.get(xx, yy);
+            img.set(xx, yy, c * 0.35);
         }
-        cx += 6 * scale;
+    }
+    draw_text(img, text, x + 4, y + 2, size_px, Vec3::splat(0.95));
+}
+
+#[cfg(test)]
+mod tests {
+    use super::*;
+
+    #[test]
+    fn g_and_9_are_different_glyphs() {
+        let draw = |s: &str| {
+            let mut img = Image::new(40, 40);
+            draw_text(&mut img, s, 2, 2, 28.0, Vec3::ONE);
+            img.pixels
+        };
+        assert_ne!(draw("g"), draw("9"));
+        assert!(draw("g").iter().any(|p| p.x > 0.5));
     }
 }
