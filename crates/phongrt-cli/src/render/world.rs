@@ -615,7 +615,11 @@ impl SurfacePoint {
     /// bound of `p` projected on the normal (pbrt-v4's OffsetRayOrigin), so the new ray cannot
     /// re-hit the surface it starts on because of rounding.
     pub fn offset_origin(&self, dir: Vec3) -> Vec3 {
-        let d = self.ng.abs().dot(self.p_error);
+        // At least the bound's largest component: the patch intersector solves in its own local
+        // frame, so its roots carry rounding that is not aligned with the normal. An exactly
+        // planar patch has a zero bound along its normal, yet a shadow ray leaving it found the
+        // patch again at t = 3.6e-15 (speckled shadow acne on a flat triangle in Phong mode).
+        let d = self.ng.abs().dot(self.p_error).max(self.p_error.max_element());
         let mut offset = d * self.ng;
         if dir.dot(self.ng) < 0.0 {
             offset = -offset;
