@@ -123,9 +123,13 @@ pub struct CameraArgs {
     /// Point the camera looks at "x,y,z" (default: the centre of the scene bounds).
     #[arg(long, value_parser = parse_vec3, allow_hyphen_values = true)]
     pub look_at: Option<Vec3>,
-    /// Camera up vector "x,y,z" [default: 0,1,0].
-    #[arg(long, value_parser = parse_vec3, allow_hyphen_values = true)]
+    /// The model's up axis: y, z (or -y, x, ...) or a vector "x,y,z" [default: detected: +z for a
+    /// model standing on a base low on z, else +y; see "Camera and framing" in the README].
+    #[arg(long, value_parser = parse_up, allow_hyphen_values = true)]
     pub up: Option<Vec3>,
+    /// Turn the default view about the model's up axis by this many degrees.
+    #[arg(long, allow_hyphen_values = true)]
+    pub orbit: Option<f32>,
     /// Vertical field of view in degrees.
     #[arg(long)]
     pub fov: Option<f32>,
@@ -200,6 +204,27 @@ pub fn parse_terminator(s: &str) -> Result<phongrt::render::Terminator, String> 
         let names: Vec<&str> = Terminator::ALL.iter().map(|r| r.name()).collect();
         format!("{s:?} is not one of {}", names.join(", "))
     })
+}
+
+/// Parse an up axis: `x`, `y`, `z` (optionally signed) or "x,y,z" (not zero).
+pub fn parse_up(s: &str) -> Result<Vec3, String> {
+    let axis = match s.trim() {
+        "x" | "+x" => Some(Vec3::X),
+        "-x" => Some(-Vec3::X),
+        "y" | "+y" => Some(Vec3::Y),
+        "-y" => Some(-Vec3::Y),
+        "z" | "+z" => Some(Vec3::Z),
+        "-z" => Some(-Vec3::Z),
+        _ => None,
+    };
+    let v = match axis {
+        Some(v) => v,
+        None => parse_vec3(s).map_err(|e| format!("{e} (or an axis: x, y, z, -y, ...)"))?,
+    };
+    if v.length_squared() == 0.0 {
+        return Err("the up vector must not be zero".into());
+    }
+    Ok(v)
 }
 
 /// Parse "x,y,z" into a vector of finite numbers.

@@ -13,7 +13,7 @@ use cli::{Cli, Command, InfoArgs, Mode, RenderArgs};
 use phongrt::embree::{self, Device};
 use phongrt::render::scene_file::{LightSection, ModeName, SceneFile};
 use phongrt::render::{
-    self, AmbientOcclusion, Camera, Light, ObjectMode, ObjectSettings, RenderOutput, RenderSettings, World,
+    self, AmbientOcclusion, Light, ObjectMode, ObjectSettings, RenderOutput, RenderSettings, World,
 };
 use phongrt::scene::{self, LoadOptions};
 
@@ -170,58 +170,47 @@ fn render_cmd(args: RenderArgs) -> anyhow::Result<()> {
         .terminator
         .or(sf_render.and_then(|r| r.terminator.as_deref()).and_then(render::Terminator::from_name))
         .unwrap_or_default();
+    // The model's up: the command line over the scene file over detection.
+    let up_given = args.camera.up.or(sf.as_ref().and_then(|s| s.camera.up).map(Vec3::from));
+    let sf_camera = sf.as_ref().map(|s| s.camera.clone()).unwrap_or_default();
+    let (mut camera, detection) = render::camera::default_view(
+        &input,
+        up_given,
+        args.camera.orbit.or(sf_camera.orbit).unwrap_or(0.0),
+        args.camera.fov.or(sf_camera.fov),
+        width as f32 / height as f32,
+    );
+    if up_given.is_none() {
+        eprintln!("phongrt: {detection}");
+    }
+    if let Some(e) = args.camera.eye.or(sf_camera.eye.map(Vec3::from)) {
+        camera.eye = e;
+    }
+    if let Some(l) = args.camera.look_at.or(sf_camera.look_at.map(Vec3::from)) {
+        camera.look_at = l;
+    }
+    let up = camera.up.normalize_or_zero();
     let sf_ground = sf.as_ref().and_then(|s| s.ground.clone());
     let ground = (args.ground || sf_ground.is_some()).then(|| {
-        let up = args.camera.up.or(sf.as_ref().and_then(|s| s.camera.up).map(Vec3::from)).unwrap_or(Vec3::Y);
         let g = sf_ground.unwrap_or_default();
-        render::Ground {
-            up: up.normalize_or_zero(),
-            height: g.height,
-            kd: g.kd.map_or(render::Ground::default().kd, Vec3::from),
-        }
+        render::Ground { up, height: g.height, kd: g.kd.map_or(render::Ground::default().kd, Vec3::from) }
     });
 
     let build = |forced: Option<ObjectMode>| -> anyhow::Result<World> {
         let mut world = World::from_scene_with_ground(&device, &input, ground, settings_for(forced))?;
         world.shading = shading;
         world.terminator = terminator;
+        // The key light follows the camera, unless the scene file places lights.
+        world.lights = vec![Light::Directional {
+            direction: camera.key_light_direction(),
+            radiance: Vec3::splat(0.85),
+            shadows: true,
+        }];
         if let Some(sf) = &sf {
             apply_scene_file(&mut world, sf);
         }
         Ok(world)
     };
-    let camera_for = |world: &World| {
-        let mut camera = Camera::frame_bounds(world.bounds.0, world.bounds.1, width as f32 / height as f32);
-        if let Some(sf) = &sf {
-            let c = &sf.camera;
-            if let Some(e) = c.eye {
-                camera.eye = Vec3::from(e);
-            }
-            if let Some(l) = c.look_at {
-                camera.look_at = Vec3::from(l);
-            }
-            if let Some(u) = c.up {
-                camera.up = Vec3::from(u);
-            }
-            if let Some(f) = c.fov {
-                camera.fov_y_deg = f;
-            }
-        }
-        if let Some(e) = args.camera.eye {
-            camera.eye = e;
-        }
-        if let Some(l) = args.camera.look_at {
-            camera.look_at = l;
-        }
-        if let Some(u) = args.camera.up {
-            camera.up = u;
-        }
-        if let Some(f) = args.camera.fov {
-            camera.fov_y_deg = f;
-        }
-        camera
-    };
-
     if args.compare {
         let alpha = match default_mode {
             ObjectMode::Phong { alpha } => alpha,
@@ -230,7 +219,6 @@ fn render_cmd(args: RenderArgs) -> anyhow::Result<()> {
         let flat = build(Some(ObjectMode::Flat))?;
         let phong = build(Some(ObjectMode::Phong { alpha }))?;
         eprintln!("phongrt: {}", phong.effects());
-        let camera = camera_for(&flat);
         let a = render::render(&flat, &camera, &settings)?;
         report("flat", &a);
         let b = render::render(&phong, &camera, &settings)?;
@@ -249,7 +237,6 @@ fn render_cmd(args: RenderArgs) -> anyhow::Result<()> {
 
     let world = build(None)?;
     eprintln!("phongrt: {}", world.effects());
-    let camera = camera_for(&world);
     let out = render::render(&world, &camera, &settings)?;
     out.image.save(&args.output)?;
     report(&args.output.display().to_string(), &out);

@@ -16,7 +16,7 @@ use anyhow::{bail, Context};
 use glam::Vec3;
 use rayon::prelude::*;
 
-pub use camera::{Camera, CameraFrame};
+pub use camera::{detect_up, Camera, CameraFrame, UpDetection, ViewSpec};
 pub use image_out::{linear_to_srgb, Image};
 pub use world::{
     AmbientOcclusion, Effects, Ground, Light, ObjectMode, ObjectSettings, Rng, Surface, Terminator, World,

@@ -78,6 +78,8 @@ pub struct CameraSection {
     pub look_at: Option<[f32; 3]>,
     pub up: Option<[f32; 3]>,
     pub fov: Option<f32>,
+    /// Turn the default view about the model's up axis (degrees).
+    pub orbit: Option<f32>,
 }
 
 #[derive(Debug, Default, Deserialize, Clone, PartialEq)]
@@ -210,6 +212,9 @@ impl SceneFile {
             if Vec3::from(up).length_squared() == 0.0 {
                 return Err(bad("camera.up".into(), "must not be zero".into()));
             }
+        }
+        if let Some(o) = c.orbit {
+            finite("camera.orbit", &[o])?;
         }
         if let Some(f) = c.fov {
             if !(f > 0.0 && f < 180.0) {
