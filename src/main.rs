@@ -200,6 +200,11 @@ fn render_cmd(args: RenderArgs) -> anyhow::Result<()> {
         let mut world = World::from_scene_with_ground(&device, &input, ground, settings_for(forced))?;
         world.shading = shading;
         world.terminator = terminator;
+        if forced.is_none() {
+            for w in &world.warnings {
+                eprintln!("phongrt: warning: {w}");
+            }
+        }
         // The key light follows the camera, unless the scene file places lights.
         world.lights = vec![Light::Directional {
             direction: camera.key_light_direction(),
@@ -212,12 +217,10 @@ fn render_cmd(args: RenderArgs) -> anyhow::Result<()> {
         Ok(world)
     };
     if args.compare {
-        let alpha = match default_mode {
-            ObjectMode::Phong { alpha } => alpha,
-            ObjectMode::Flat => 1.0,
-        };
+        // Flat everywhere on the left; on the right each object as a plain render makes it (the
+        // scene file's and --object's per-object mode and alpha).
         let flat = build(Some(ObjectMode::Flat))?;
-        let phong = build(Some(ObjectMode::Phong { alpha }))?;
+        let phong = build(None)?;
         eprintln!("phongrt: {}", phong.effects());
         let a = render::render(&flat, &camera, &settings)?;
         report("flat", &a);
@@ -278,7 +281,7 @@ fn apply_scene_file(world: &mut World, sf: &SceneFile) {
     world.ambient_occlusion =
         sf.ambient_occlusion.map(|a| AmbientOcclusion { samples: a.samples, distance: a.distance });
     for o in &sf.objects {
-        for obj in world.objects.iter_mut().filter(|x| o.name == "*" || x.name == o.name) {
+        for obj in world.objects.iter_mut().filter(|x| !x.is_ground && (o.name == "*" || x.name == o.name)) {
             if let Some(kd) = o.kd {
                 obj.surface.kd = Vec3::from(kd);
             }
@@ -290,6 +293,12 @@ fn apply_scene_file(world: &mut World, sf: &SceneFile) {
             }
             if let Some(n) = o.ior {
                 obj.surface.ior = n;
+            }
+            if let Some(k) = o.specular {
+                obj.surface.specular = Vec3::from(k);
+            }
+            if let Some(n) = o.shininess {
+                obj.surface.shininess = n;
             }
         }
     }

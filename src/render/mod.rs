@@ -55,6 +55,8 @@ pub struct RayCounts {
     pub ambient_occlusion: u64,
     /// Short rays that check a shadow-ray origin lift is clear (see [`world::Terminator::Lift`]).
     pub terminator: u64,
+    /// Highlight-lobe evaluations (not rays; glossy materials only).
+    pub specular: u64,
 }
 
 impl RayCounts {
@@ -74,6 +76,7 @@ impl RayCounts {
         self.refraction += o.refraction;
         self.ambient_occlusion += o.ambient_occlusion;
         self.terminator += o.terminator;
+        self.specular += o.specular;
     }
 }
 
@@ -91,7 +94,11 @@ impl std::fmt::Display for RayCounts {
                 write!(f, ", {n} {k}")?;
             }
         }
-        write!(f, ")")
+        write!(f, ")")?;
+        if self.specular > 0 {
+            write!(f, ", {} specular evaluations", self.specular)?;
+        }
+        Ok(())
     }
 }
 

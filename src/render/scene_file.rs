@@ -23,6 +23,8 @@
 //! mode = "phong"                  # or "flat"
 //! alpha = 0.75
 //! mirror = [0.5, 0.5, 0.5]        # optional material overrides
+//! specular = [0.4, 0.4, 0.4]      # a Blinn-Phong highlight (MTL Ks), with
+//! shininess = 64.0                # its exponent (MTL Ns)
 //! ```
 
 use std::path::{Path, PathBuf};
@@ -152,6 +154,10 @@ pub struct ObjectSection {
     pub mirror: Option<[f32; 3]>,
     pub transmission: Option<f32>,
     pub ior: Option<f32>,
+    /// Highlight reflectance (as MTL `Ks` with `illum 2`), each in [0, 1].
+    pub specular: Option<[f32; 3]>,
+    /// Highlight exponent (as MTL `Ns`), >= 0.
+    pub shininess: Option<f32>,
 }
 
 #[derive(Debug, Deserialize, Clone, Copy, PartialEq)]
@@ -280,6 +286,17 @@ impl SceneFile {
             for (k, v) in [("kd", o.kd), ("mirror", o.mirror)] {
                 if let Some(v) = v {
                     nonneg(&key(k), &v)?;
+                }
+            }
+            if let Some(v) = o.specular {
+                nonneg(&key("specular"), &v)?;
+                if v.iter().any(|&x| x > 1.0) {
+                    return Err(bad(key("specular"), format!("{v:?} has a value above 1")));
+                }
+            }
+            if let Some(n) = o.shininess {
+                if !(n.is_finite() && n >= 0.0) {
+                    return Err(bad(key("shininess"), format!("{n} is not a number >= 0")));
                 }
             }
             if let Some(t) = o.transmission {

@@ -2,6 +2,8 @@
 //! (user geometry), with materials and lights; and the integrator, which simulates only the
 //! effects the scene calls for (see [`Effects`]).
 
+use std::path::Path;
+
 use anyhow::Context;
 use glam::Vec3;
 
@@ -52,22 +54,83 @@ pub struct Surface {
     pub transmission: f32,
     /// Index of refraction (MTL `Ni`).
     pub ior: f32,
+    /// Specular reflectance of the highlight lobe (MTL `Ks` with `illum` >= 2); zero = no
+    /// specular evaluation.
+    pub specular: Vec3,
+    /// The Blinn-Phong exponent (MTL `Ns`); 0 = no lobe.
+    pub shininess: f32,
 }
 
 impl Surface {
     pub fn diffuse(kd: Vec3) -> Self {
-        Surface { kd, mirror: Vec3::ZERO, transmission: 0.0, ior: 1.0 }
+        Surface { kd, mirror: Vec3::ZERO, transmission: 0.0, ior: 1.0, specular: Vec3::ZERO, shininess: 0.0 }
     }
 
     /// The surface an MTL material calls for.
     pub fn from_material(m: &sc::Material) -> Self {
+        Self::from_material_checked(m, Path::new("")).0
+    }
+
+    /// As [`Surface::from_material`], with a one-line warning (naming `file` and the material)
+    /// for each value out of range and clamped: a negative `Ns`, a `Ks` above 1.
+    pub fn from_material_checked(m: &sc::Material, file: &Path) -> (Self, Vec<String>) {
+        let mut warnings = Vec::new();
+        let ks = if m.ks.is_finite() { m.ks.max(Vec3::ZERO) } else { Vec3::ZERO };
+        let ks = if ks.max_element() > 1.0 {
+            warnings.push(format!(
+                "{}: material {:?}: Ks {} {} {} is above 1; clamped to 1",
+                file.display(),
+                m.name,
+                m.ks.x,
+                m.ks.y,
+                m.ks.z
+            ));
+            ks.min(Vec3::ONE)
+        } else {
+            ks
+        };
+        let ns = if m.ns.is_finite() { m.ns } else { 0.0 };
+        let ns = if ns < 0.0 {
+            warnings.push(format!(
+                "{}: material {:?}: Ns {} is negative; clamped to 0 (no highlight)",
+                file.display(),
+                m.name,
+                m.ns
+            ));
+            0.0
+        } else {
+            ns.min(1e4)
+        };
         let mirror = match m.illum {
-            Some(3 | 5 | 7) => m.ks,
+            Some(3 | 5 | 7) => ks,
             _ => Vec3::ZERO,
+        };
+        // A highlight for illum >= 2 with Ks > 0 and Ns > 0 (Ns = 0 is a uniform lobe: no highlight).
+        let (specular, shininess) = match m.illum {
+            Some(i) if i >= 2 && ns > 0.0 => (ks, ns),
+            _ => (Vec3::ZERO, 0.0),
         };
         let transmission = (1.0 - m.dissolve).clamp(0.0, 1.0);
         let ior = if m.ni.is_finite() && m.ni >= 1.0 { m.ni } else { 1.0 };
-        Surface { kd: m.kd, mirror, transmission, ior }
+        (Surface { kd: m.kd, mirror, transmission, ior, specular, shininess }, warnings)
+    }
+
+    /// Whether the surface has a highlight lobe (specular evaluation per light).
+    pub fn glossy(&self) -> bool {
+        self.specular.max_element() > 0.0 && self.shininess > 0.0
+    }
+
+    /// The normalised Blinn-Phong lobe, `Ks (Ns + 8) / 8 (n·h)^Ns` (the `1/pi` of the energy
+    /// normalisation `(Ns + 8) / (8 pi)` cancels against this renderer's light units, in which a
+    /// diffuse surface reflects `Kd E`), for the shading normal `n`, the direction to the viewer
+    /// `v` and to the light `l` (unit).
+    pub fn blinn_phong(&self, n: Vec3, v: Vec3, l: Vec3) -> Vec3 {
+        let Some(h) = (v + l).try_normalize() else { return Vec3::ZERO };
+        let c = n.dot(h);
+        if !(c > 0.0) {
+            return Vec3::ZERO;
+        }
+        self.specular * ((self.shininess + 8.0) / 8.0 * c.powf(self.shininess))
     }
 
     pub fn reflects(&self) -> bool {
@@ -182,6 +245,8 @@ pub struct Effects {
     pub shadow_lights: Vec<usize>,
     /// Lights with soft shadows (area lights).
     pub soft_shadow_lights: Vec<usize>,
+    /// Objects with a highlight lobe (MTL `illum` >= 2, `Ks`, `Ns` > 0).
+    pub glossy: Vec<String>,
     /// Objects whose material reflects / refracts (names).
     pub reflective: Vec<String>,
     pub refractive: Vec<String>,
@@ -193,17 +258,26 @@ pub struct Effects {
 impl std::fmt::Display for Effects {
     fn fmt(&self, f: &mut std::fmt::Formatter<'_>) -> std::fmt::Result {
         let mut parts = vec!["direct lighting".to_string()];
-        if !self.shadow_lights.is_empty() {
-            parts.push(format!("shadows ({} lights)", self.shadow_lights.len()));
+        // Area lights are counted once, as soft shadows.
+        let hard = self.shadow_lights.iter().filter(|i| !self.soft_shadow_lights.contains(i)).count();
+        if hard > 0 {
+            parts.push(format!("shadows ({hard} lights)"));
         }
         if !self.soft_shadow_lights.is_empty() {
             parts.push(format!("soft shadows ({} area lights)", self.soft_shadow_lights.len()));
+        }
+        if !self.glossy.is_empty() {
+            parts.push(format!("highlights ({} objects)", self.glossy.len()));
         }
         if !self.reflective.is_empty() {
             parts.push(format!("reflection ({} objects)", self.reflective.len()));
         }
         if !self.refractive.is_empty() {
             parts.push(format!("refraction ({} objects)", self.refractive.len()));
+            parts.push(format!("Fresnel reflection ({} objects)", self.refractive.len()));
+            if !self.shadow_lights.is_empty() {
+                parts.push(format!("shadows through glass ({} objects)", self.refractive.len()));
+            }
         }
         if let Some(ao) = self.ambient_occlusion {
             parts.push(format!("ambient occlusion ({} samples)", ao.samples));
@@ -223,6 +297,8 @@ pub struct Object {
     pub surface: Surface,
     /// The patches, for Phong objects (shared with the Embree geometry's copy).
     pub phong: Option<PhongMesh>,
+    /// The ground plane (not a scene object: `[[object]] name = "*"` leaves it alone).
+    pub is_ground: bool,
 }
 
 /// Per-object choices (from the CLI or a scene file).
@@ -256,6 +332,8 @@ pub struct World {
     pub shading: ShadingNormal,
     /// The terminator rule of Phong objects (flat ones keep the classic faceted terminator).
     pub terminator: Terminator,
+    /// One-line warnings from building the world (materials out of range, ...).
+    pub warnings: Vec<String>,
 }
 
 /// The default key light: from the upper left behind the camera, casting shadows.
@@ -287,6 +365,7 @@ impl World {
     ) -> anyhow::Result<World> {
         let mut scene = Scene::new(device)?;
         let mut objects = Vec::with_capacity(input.meshes.len());
+        let mut warnings = Vec::new();
         for (i, mesh) in input.meshes.iter().enumerate() {
             let s = settings(i, mesh);
             let mut phong = None;
@@ -314,11 +393,18 @@ impl World {
             };
             // geomIDs are handed out densely from 0 in attach order on a fresh scene.
             anyhow::ensure!(id as usize == objects.len(), "unexpected geomID {id}");
-            let surface = mesh
-                .material
-                .and_then(|m| input.materials.get(m))
-                .map(Surface::from_material)
-                .unwrap_or(Surface::diffuse(Vec3::splat(0.7)));
+            let surface = match mesh.material.and_then(|m| input.materials.get(m)) {
+                Some(m) => {
+                    let (s, w) = Surface::from_material_checked(m, &input.path);
+                    for w in w {
+                        if !warnings.contains(&w) {
+                            warnings.push(w);
+                        }
+                    }
+                    s
+                }
+                None => Surface::diffuse(Vec3::splat(0.7)),
+            };
             objects.push(Object {
                 name: mesh.name.clone(),
                 mode: s.mode,
@@ -327,6 +413,7 @@ impl World {
                 indices: mesh.indices.clone(),
                 surface,
                 phong,
+                is_ground: false,
             });
         }
         if let Some(g) = ground {
@@ -343,6 +430,7 @@ impl World {
                 indices,
                 surface: Surface::diffuse(g.kd),
                 phong: None,
+                is_ground: true,
             });
         }
         scene.commit()?;
@@ -358,6 +446,7 @@ impl World {
             max_depth: 6,
             shading: ShadingNormal::default(),
             terminator: Terminator::default(),
+            warnings,
         })
     }
 
@@ -371,6 +460,7 @@ impl World {
             soft_shadow_lights: (0..self.lights.len())
                 .filter(|&i| matches!(self.lights[i], Light::Sphere { .. }))
                 .collect(),
+            glossy: pick(Surface::glossy),
             reflective: pick(Surface::reflects),
             refractive: pick(Surface::refracts),
             ambient_occlusion: self.ambient_occlusion,
@@ -395,16 +485,28 @@ impl World {
         let s = obj.surface;
         let mut c = Vec3::ZERO;
 
-        // Direct light.
-        if s.kd.max_element() > 0.0 {
+        // Direct light: diffuse, plus the highlight lobe only for glossy materials.
+        let glossy = s.glossy();
+        if s.kd.max_element() > 0.0 || glossy {
             let mut e = self.ambient;
             if let Some(ao) = self.ambient_occlusion {
                 e *= self.ambient_visibility(&sp, ao, counts, rng);
             }
+            let kd = s.kd * (1.0 - s.transmission);
+            c += kd * e;
+            let v = -ray.dir.normalize_or_zero();
             for light in &self.lights {
-                e += self.irradiance(light, &sp, counts, rng);
+                if glossy {
+                    let mut spec = 0u64;
+                    c += self.irradiance(light, &sp, counts, rng, |l| {
+                        spec += 1;
+                        kd + s.blinn_phong(sp.n, v, l)
+                    });
+                    counts.specular += spec;
+                } else {
+                    c += self.irradiance(light, &sp, counts, rng, |_| kd);
+                }
             }
-            c += s.kd * e * (1.0 - s.transmission);
         }
 
         if depth >= self.max_depth {
@@ -418,25 +520,39 @@ impl World {
             let o = sp.offset_origin(r);
             c += s.mirror * self.radiance(Ray::new(o, r), depth + 1, counts, rng);
         }
-        // Refraction, only for transparent materials.
+        // Refraction with the dielectric Fresnel reflection, only for transparent materials.
         if s.refracts() {
-            let (n, eta) = if sp.entering { (sp.n, 1.0 / s.ior) } else { (sp.n, s.ior) };
-            let cos_i = -d.dot(n);
+            let eta = if sp.entering { 1.0 / s.ior } else { s.ior };
+            let n = sp.n;
+            let cos_i = (-d.dot(n)).clamp(0.0, 1.0);
             let k = 1.0 - eta * eta * (1.0 - cos_i * cos_i);
-            let dir = if k < 0.0 {
-                d + 2.0 * cos_i * n // total internal reflection
-            } else {
-                eta * d + (eta * cos_i - k.sqrt()) * n
-            };
-            counts.refraction += 1;
-            let o = sp.offset_origin(dir);
-            c += s.transmission * self.radiance(Ray::new(o, dir), depth + 1, counts, rng);
+            let f = if k < 0.0 { 1.0 } else { fresnel_dielectric(cos_i, k.sqrt(), eta) };
+            if f > 0.0 {
+                let r = d + 2.0 * cos_i * n;
+                counts.reflection += 1;
+                let o = sp.offset_origin(r);
+                c += s.transmission * f * self.radiance(Ray::new(o, r), depth + 1, counts, rng);
+            }
+            if k >= 0.0 {
+                let dir = eta * d + (eta * cos_i - k.sqrt()) * n;
+                counts.refraction += 1;
+                let o = sp.offset_origin(dir);
+                c += s.transmission * (1.0 - f) * self.radiance(Ray::new(o, dir), depth + 1, counts, rng);
+            }
         }
         c
     }
 
-    /// Irradiance from one light at a shading point, with shadow rays only if the light casts them.
-    fn irradiance(&self, light: &Light, sp: &SurfacePoint, counts: &mut RayCounts, rng: &mut Rng) -> Vec3 {
+    /// Light reflected from one light at a shading point: the irradiance from each light direction
+    /// `l` weighted by `brdf(l)`, with shadow rays only if the light casts them.
+    fn irradiance(
+        &self,
+        light: &Light,
+        sp: &SurfacePoint,
+        counts: &mut RayCounts,
+        rng: &mut Rng,
+        mut brdf: impl FnMut(Vec3) -> Vec3,
+    ) -> Vec3 {
         match *light {
             Light::Directional { direction, radiance, shadows } => {
                 let l = direction.normalize_or_zero();
@@ -444,10 +560,11 @@ impl World {
                 if cos <= 0.0 {
                     return Vec3::ZERO;
                 }
-                if shadows && self.blocked(sp, l, f32::INFINITY, counts) {
+                let vis = if shadows { self.visibility(sp, l, f32::INFINITY, counts) } else { 1.0 };
+                if vis == 0.0 {
                     return Vec3::ZERO;
                 }
-                radiance * cos
+                vis * brdf(l) * radiance * cos
             }
             Light::Point { position, intensity, shadows } => {
                 let to = position - sp.p;
@@ -457,10 +574,11 @@ impl World {
                 if cos <= 0.0 || d2 == 0.0 {
                     return Vec3::ZERO;
                 }
-                if shadows && self.blocked(sp, to, 1.0, counts) {
+                let vis = if shadows { self.visibility(sp, to, 1.0, counts) } else { 1.0 };
+                if vis == 0.0 {
                     return Vec3::ZERO;
                 }
-                intensity * cos / d2
+                vis * brdf(l) * intensity * cos / d2
             }
             Light::Sphere { center, radius, intensity, samples } => {
                 let n = samples.max(1);
@@ -474,12 +592,14 @@ impl World {
                     let q = center + radius * Vec3::new(r * phi.cos(), r * phi.sin(), z);
                     let to = q - sp.p;
                     let d2 = to.length_squared();
-                    let cos = sp.light_factor(to / d2.sqrt());
+                    let l = to / d2.sqrt();
+                    let cos = sp.light_factor(l);
                     if cos <= 0.0 || d2 == 0.0 {
                         continue;
                     }
-                    if !self.blocked(sp, to, 1.0, counts) {
-                        sum += intensity * cos / d2;
+                    let vis = self.visibility(sp, to, 1.0, counts);
+                    if vis > 0.0 {
+                        sum += vis * brdf(l) * intensity * cos / d2;
                     }
                 }
                 sum / n as f32
@@ -487,12 +607,43 @@ impl World {
         }
     }
 
-    /// Trace a shadow ray from the offset surface point along `dir` over `(0, tfar)`: from the
-    /// lifted point (see [`Terminator::Lift`]) where the true surface turns away from the light.
-    fn blocked(&self, sp: &SurfacePoint, dir: Vec3, tfar: f32, counts: &mut RayCounts) -> bool {
+    /// The fraction of light arriving along `dir` over `(0, tfar)` from the offset surface point
+    /// (from the lifted point, see [`Terminator::Lift`], where the true surface turns away from the
+    /// light): 0 behind an opaque surface, 1 if nothing is in the way. Only when some material is
+    /// transmissive, the ray continues through each transmissive surface it meets, attenuated by
+    /// its transmission (no refraction: shadows through glass, without caustics), one more shadow
+    /// ray per surface passed, at most [`MAX_SHADOW_SURFACES`]; otherwise one any-hit ray.
+    fn visibility(&self, sp: &SurfacePoint, dir: Vec3, tfar: f32, counts: &mut RayCounts) -> f32 {
         let o = self.shadow_origin(sp, dir, counts);
         counts.shadow += 1;
-        self.scene.occluded1(Ray::new(o, dir).with_range(0.0, tfar))
+        if !self.objects.iter().any(|x| x.surface.refracts()) {
+            return if self.scene.occluded1(Ray::new(o, dir).with_range(0.0, tfar)) { 0.0 } else { 1.0 };
+        }
+        let end = (tfar.is_finite()).then(|| o + tfar * dir);
+        let mut ray = Ray::new(o, dir).with_range(0.0, tfar);
+        let mut t = 1.0f32;
+        for pass in 0..MAX_SHADOW_SURFACES {
+            if pass > 0 {
+                counts.shadow += 1;
+            }
+            let Some(hit) = self.scene.intersect1(ray) else { return t };
+            let Some(obj) = self.objects.get(hit.geom_id as usize) else { return 0.0 };
+            if !obj.surface.refracts() {
+                return 0.0;
+            }
+            t *= obj.surface.transmission;
+            if !(t > 0.0) {
+                return 0.0;
+            }
+            let hp = obj.surface_point(&hit, &ray, self.shading, Terminator::Plain);
+            let org = hp.offset_origin(dir);
+            let rest = end.map_or(f32::INFINITY, |e| (e - org).dot(dir) / dir.length_squared());
+            if !(rest > 0.0) {
+                return t;
+            }
+            ray = Ray::new(org, dir).with_range(0.0, rest);
+        }
+        0.0
     }
 
     /// The origin of a shadow ray along `dir`. With [`Terminator::Lift`], the surface point is
@@ -596,6 +747,22 @@ impl SurfacePoint {
         let gp = -g * g * g + g * g + g;
         let t = cos_s / band;
         cos_s * (gp + (1.0 - gp) * t)
+    }
+}
+
+/// The most transmissive surfaces one shadow ray passes through before it counts as blocked.
+pub const MAX_SHADOW_SURFACES: u32 = 16;
+
+/// The dielectric Fresnel reflectance for unpolarised light (pbrt-v4's FrDielectric), from the
+/// cosines of the incident and the transmitted angle and the relative index `eta = n_i / n_t`.
+pub fn fresnel_dielectric(cos_i: f32, cos_t: f32, eta: f32) -> f32 {
+    let r_parl = (cos_i - eta * cos_t) / (cos_i + eta * cos_t);
+    let r_perp = (eta * cos_i - cos_t) / (eta * cos_i + cos_t);
+    let f = 0.5 * (r_parl * r_parl + r_perp * r_perp);
+    if f.is_finite() {
+        f.clamp(0.0, 1.0)
+    } else {
+        1.0
     }
 }
 
