@@ -6,6 +6,7 @@ pub mod image_out;
 pub mod scene_file;
 pub mod smoothness;
 pub mod text;
+pub mod texture;
 pub mod world;
 
 use std::io::IsTerminal;
@@ -57,6 +58,8 @@ pub struct RayCounts {
     pub terminator: u64,
     /// Highlight-lobe evaluations (not rays; glossy materials only).
     pub specular: u64,
+    /// Texture lookups (not rays; textured materials only).
+    pub texture: u64,
 }
 
 impl RayCounts {
@@ -77,6 +80,7 @@ impl RayCounts {
         self.ambient_occlusion += o.ambient_occlusion;
         self.terminator += o.terminator;
         self.specular += o.specular;
+        self.texture += o.texture;
     }
 }
 
@@ -97,6 +101,9 @@ impl std::fmt::Display for RayCounts {
         write!(f, ")")?;
         if self.specular > 0 {
             write!(f, ", {} specular evaluations", self.specular)?;
+        }
+        if self.texture > 0 {
+            write!(f, ", {} texture lookups", self.texture)?;
         }
         Ok(())
     }

@@ -5,8 +5,9 @@
 use std::path::Path;
 
 use anyhow::Context;
-use glam::Vec3;
+use glam::{Vec2, Vec3};
 
+use super::texture::Texture;
 use super::RayCounts;
 use crate::embree::{Device, GeometryOptions, Hit, PhongMesh, Ray, Scene, UserGeometryOptions};
 use crate::phong::accuracy::SplitMix;
@@ -247,6 +248,8 @@ pub struct Effects {
     pub soft_shadow_lights: Vec<usize>,
     /// Objects with a highlight lobe (MTL `illum` >= 2, `Ks`, `Ns` > 0).
     pub glossy: Vec<String>,
+    /// Objects with a `map_Kd` texture.
+    pub textured: Vec<String>,
     /// Objects whose material reflects / refracts (names).
     pub reflective: Vec<String>,
     pub refractive: Vec<String>,
@@ -268,6 +271,9 @@ impl std::fmt::Display for Effects {
         }
         if !self.glossy.is_empty() {
             parts.push(format!("highlights ({} objects)", self.glossy.len()));
+        }
+        if !self.textured.is_empty() {
+            parts.push(format!("textures ({} objects)", self.textured.len()));
         }
         if !self.reflective.is_empty() {
             parts.push(format!("reflection ({} objects)", self.reflective.len()));
@@ -299,6 +305,23 @@ pub struct Object {
     pub phong: Option<PhongMesh>,
     /// The ground plane (not a scene object: `[[object]] name = "*"` leaves it alone).
     pub is_ground: bool,
+    /// The `map_Kd` texture (multiplying `kd`, as MTL defines it), with the corners' `vt` per
+    /// triangle; `None` without a usable texture or texture coordinates.
+    pub texture: Option<TextureBinding>,
+}
+
+/// A texture shared between objects, with one object's corner texture coordinates per triangle.
+pub type TextureBinding = (std::sync::Arc<Texture>, Vec<[[f32; 2]; 3]>);
+
+impl Object {
+    /// The texture coordinates at `(u, v)` of triangle `prim`, by the barycentric weights
+    /// `1-u-v, u, v` the hit reports (Phong patches use the same `u, v`).
+    pub fn texcoord(uvs: &[[[f32; 2]; 3]], prim: u32, u: f32, v: f32) -> Option<Vec2> {
+        let t = uvs.get(prim as usize)?;
+        let c = |k: usize| Vec2::from(t[k]);
+        let uv = (1.0 - u - v) * c(0) + u * c(1) + v * c(2);
+        uv.is_finite().then_some(uv)
+    }
 }
 
 /// Per-object choices (from the CLI or a scene file).
@@ -366,6 +389,8 @@ impl World {
         let mut scene = Scene::new(device)?;
         let mut objects = Vec::with_capacity(input.meshes.len());
         let mut warnings = Vec::new();
+        type Loaded = Result<std::sync::Arc<Texture>, String>;
+        let mut textures: Vec<(std::path::PathBuf, Loaded)> = Vec::new();
         for (i, mesh) in input.meshes.iter().enumerate() {
             let s = settings(i, mesh);
             let mut phong = None;
@@ -405,6 +430,34 @@ impl World {
                 }
                 None => Surface::diffuse(Vec3::splat(0.7)),
             };
+            // The diffuse texture, loaded once per file, where the mesh has texture coordinates.
+            let mut texture = None;
+            let tex_path =
+                mesh.material.and_then(|m| input.materials.get(m)).and_then(|m| m.diffuse_texture.clone());
+            if let Some(path) = tex_path.filter(|p| p.exists()) {
+                if mesh.corner_uvs.is_empty() {
+                    let w = format!(
+                        "{}: object {:?} has a texture ({}) but no `vt` coordinates; using the flat Kd colour",
+                        input.path.display(),
+                        mesh.name,
+                        path.display()
+                    );
+                    warnings.push(w);
+                } else {
+                    let loaded = match textures.iter().find(|(p, _)| *p == path) {
+                        Some((_, t)) => t.clone(),
+                        None => {
+                            let t = Texture::load(&path).map(std::sync::Arc::new);
+                            if let Err(e) = &t {
+                                warnings.push(format!("{e}; using the flat Kd colour"));
+                            }
+                            textures.push((path.clone(), t.clone()));
+                            t
+                        }
+                    };
+                    texture = loaded.ok().map(|t| (t, mesh.corner_uvs.clone()));
+                }
+            }
             objects.push(Object {
                 name: mesh.name.clone(),
                 mode: s.mode,
@@ -414,6 +467,7 @@ impl World {
                 surface,
                 phong,
                 is_ground: false,
+                texture,
             });
         }
         if let Some(g) = ground {
@@ -431,6 +485,7 @@ impl World {
                 surface: Surface::diffuse(g.kd),
                 phong: None,
                 is_ground: true,
+                texture: None,
             });
         }
         scene.commit()?;
@@ -461,6 +516,7 @@ impl World {
                 .filter(|&i| matches!(self.lights[i], Light::Sphere { .. }))
                 .collect(),
             glossy: pick(Surface::glossy),
+            textured: self.objects.iter().filter(|o| o.texture.is_some()).map(|o| o.name.clone()).collect(),
             reflective: pick(Surface::reflects),
             refractive: pick(Surface::refracts),
             ambient_occlusion: self.ambient_occlusion,
@@ -492,7 +548,14 @@ impl World {
             if let Some(ao) = self.ambient_occlusion {
                 e *= self.ambient_visibility(&sp, ao, counts, rng);
             }
-            let kd = s.kd * (1.0 - s.transmission);
+            let mut kd = s.kd * (1.0 - s.transmission);
+            // The texture, only for textured objects.
+            if let Some((tex, uvs)) = &obj.texture {
+                if let Some(uv) = Object::texcoord(uvs, hit.prim_id, hit.u, hit.v) {
+                    counts.texture += 1;
+                    kd *= tex.sample(uv);
+                }
+            }
             c += kd * e;
             let v = -ray.dir.normalize_or_zero();
             for light in &self.lights {
