@@ -213,6 +213,23 @@ fn render_cmd(args: RenderArgs) -> anyhow::Result<()> {
         }];
         if let Some(sf) = &sf {
             apply_scene_file(&mut world, sf);
+            if let Some(e) = &sf.environment {
+                let source = match (&e.color, &e.map) {
+                    (Some(c), _) => render::EnvironmentSource::Constant(Vec3::from(*c)),
+                    (None, Some(m)) => {
+                        let base = if is_toml {
+                            args.scene.parent()
+                        } else {
+                            args.scene_file.as_deref().and_then(Path::parent)
+                        };
+                        let path = base.unwrap_or(Path::new(".")).join(m);
+                        let texture = render::Environment::load_map(&path).map_err(anyhow::Error::msg)?;
+                        render::EnvironmentSource::Map { texture: std::sync::Arc::new(texture), up }
+                    }
+                    (None, None) => bail!("environment: give color or map"),
+                };
+                world.environment = Some(render::Environment { source, samples: e.samples.unwrap_or(16) });
+            }
         }
         Ok(world)
     };

@@ -20,7 +20,8 @@ use rayon::prelude::*;
 pub use camera::{detect_up, Camera, CameraFrame, UpDetection, ViewSpec};
 pub use image_out::{linear_to_srgb, Image};
 pub use world::{
-    AmbientOcclusion, Effects, Ground, Light, ObjectMode, ObjectSettings, Rng, Surface, Terminator, World,
+    AmbientOcclusion, Effects, Environment, EnvironmentSource, Ground, Light, ObjectMode, ObjectSettings,
+    Rng, Surface, Terminator, World,
 };
 
 use crate::embree::{self, Ray};
@@ -60,6 +61,8 @@ pub struct RayCounts {
     pub specular: u64,
     /// Texture lookups (not rays; textured materials only).
     pub texture: u64,
+    /// Shadow rays towards the environment light (only with `[environment]`).
+    pub environment: u64,
 }
 
 impl RayCounts {
@@ -70,6 +73,7 @@ impl RayCounts {
             + self.refraction
             + self.ambient_occlusion
             + self.terminator
+            + self.environment
     }
 
     fn add(&mut self, o: &RayCounts) {
@@ -81,6 +85,7 @@ impl RayCounts {
         self.terminator += o.terminator;
         self.specular += o.specular;
         self.texture += o.texture;
+        self.environment += o.environment;
     }
 }
 
@@ -93,6 +98,7 @@ impl std::fmt::Display for RayCounts {
             (self.refraction, "refraction"),
             (self.ambient_occlusion, "ambient occlusion"),
             (self.terminator, "terminator lift"),
+            (self.environment, "environment"),
         ] {
             if n > 0 {
                 write!(f, ", {n} {k}")?;

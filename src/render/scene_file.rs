@@ -61,6 +61,18 @@ pub struct SceneFile {
     pub crease_angle: Option<f32>,
     /// A ground plane under the scene, receiving its shadows.
     pub ground: Option<GroundSection>,
+    /// Light from all around: a constant colour or an equirectangular map.
+    pub environment: Option<EnvironmentSection>,
+}
+
+/// `[environment]`: `color = [r, g, b]` or `map = "sky.hdr"` (.hdr or .exr, relative to the scene
+/// file), sampled by `samples` shadow rays per shading point (default 16).
+#[derive(Debug, Default, Deserialize, Clone, PartialEq)]
+#[serde(deny_unknown_fields)]
+pub struct EnvironmentSection {
+    pub color: Option<[f32; 3]>,
+    pub map: Option<PathBuf>,
+    pub samples: Option<u32>,
 }
 
 /// `[ground]`: a flat diffuse plane perpendicular to the camera's up.
@@ -343,6 +355,18 @@ impl SceneFile {
             }
             if let Some(kd) = g.kd {
                 nonneg("ground.kd", &kd)?;
+            }
+        }
+        if let Some(e) = &self.environment {
+            match (e.color, &e.map) {
+                (Some(c), None) => nonneg("environment.color", &c)?,
+                (None, Some(_)) => {}
+                _ => return Err(bad("environment".into(), "give exactly one of color and map".into())),
+            }
+            if let Some(n) = e.samples {
+                if n == 0 || n > 4096 {
+                    return Err(bad("environment.samples".into(), format!("{n} is not in 1..=4096")));
+                }
             }
         }
         if let Some(a) = self.crease_angle {

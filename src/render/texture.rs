@@ -49,6 +49,22 @@ impl Texture {
         self.texels[(y.rem_euclid(h) * w + x.rem_euclid(w)) as usize]
     }
 
+    /// Bilinear lookup for a latitude-longitude map: `u` wraps around, `t` in [0, 1] runs from
+    /// the top row (0) to the bottom row (1) and is clamped there (no wrap over the poles).
+    pub fn sample_latlong(&self, u: f32, t: f32) -> Vec3 {
+        let (u, t) =
+            (if u.is_finite() { u } else { 0.0 }, if t.is_finite() { t.clamp(0.0, 1.0) } else { 0.0 });
+        let x = (u - u.floor()) * self.width as f32 - 0.5;
+        let y = (t * self.height as f32 - 0.5).clamp(0.0, (self.height - 1) as f32);
+        let (x0, y0) = (x.floor(), y.floor());
+        let (fx, fy) = (x - x0, y - y0);
+        let (x0, y0) = (x0 as i64, y0 as i64);
+        let y1 = (y0 + 1).min(self.height as i64 - 1);
+        let top = self.texel(x0, y0).lerp(self.texel(x0 + 1, y0), fx);
+        let bottom = self.texel(x0, y1).lerp(self.texel(x0 + 1, y1), fx);
+        top.lerp(bottom, fy)
+    }
+
     /// Bilinear lookup at `uv` (OBJ convention: `v` = 0 at the bottom row), wrapping by repeat.
     /// A non-finite `uv` gives the texel at (0, 0).
     pub fn sample(&self, uv: Vec2) -> Vec3 {

@@ -231,6 +231,61 @@ impl Ground {
     }
 }
 
+/// Where environment light comes from.
+#[derive(Clone, Debug)]
+pub enum EnvironmentSource {
+    /// The same radiance from every direction.
+    Constant(Vec3),
+    /// An equirectangular (latitude-longitude) map of linear radiance, its top row towards `up`.
+    Map { texture: std::sync::Arc<Texture>, up: Vec3 },
+}
+
+/// Light from all around (scene file `[environment]`): sampled by `samples` cosine-weighted
+/// shadow rays per shading point, and seen by rays that leave the scene. Only when asked for.
+#[derive(Clone, Debug)]
+pub struct Environment {
+    pub source: EnvironmentSource,
+    pub samples: u32,
+}
+
+impl Environment {
+    /// Read an equirectangular `.hdr` or `.exr` map (linear radiance). One-line error naming the
+    /// file if it is missing, cannot be decoded, or holds a non-finite or negative value.
+    pub fn load_map(path: &Path) -> Result<Texture, String> {
+        let img =
+            image::open(path).map_err(|e| format!("{}: cannot read environment map: {e}", path.display()))?;
+        let rgb = img.to_rgb32f();
+        let texels: Vec<Vec3> = rgb.pixels().map(|p| Vec3::new(p[0], p[1], p[2])).collect();
+        if let Some(i) = texels.iter().position(|t| !t.is_finite() || t.min_element() < 0.0) {
+            return Err(format!(
+                "{}: environment map has a non-finite or negative value at pixel {i}",
+                path.display()
+            ));
+        }
+        Texture::from_linear(rgb.width(), rgb.height(), texels)
+            .ok_or_else(|| format!("{}: environment map has no pixels", path.display()))
+    }
+
+    /// The radiance arriving from direction `d` (towards the environment; need not be unit).
+    pub fn radiance(&self, d: Vec3) -> Vec3 {
+        match &self.source {
+            EnvironmentSource::Constant(c) => *c,
+            EnvironmentSource::Map { texture, up } => {
+                let d = d.normalize_or_zero();
+                // Compute the direction in the map's frame: y along `up`.
+                let (x, y, z) = if up.z.abs() > 0.5 {
+                    (d.x, d.z * up.z.signum(), -d.y * up.z.signum())
+                } else {
+                    (d.x, d.y, d.z)
+                };
+                let u = 0.5 + x.atan2(-z) / std::f32::consts::TAU;
+                let theta = y.clamp(-1.0, 1.0).acos();
+                texture.sample_latlong(u, theta / std::f32::consts::PI)
+            }
+        }
+    }
+}
+
 /// Ambient occlusion, only when asked for.
 #[derive(Clone, Copy, Debug, PartialEq)]
 pub struct AmbientOcclusion {
@@ -254,6 +309,8 @@ pub struct Effects {
     pub reflective: Vec<String>,
     pub refractive: Vec<String>,
     pub ambient_occlusion: Option<AmbientOcclusion>,
+    /// Environment light: its kind and samples per shading point.
+    pub environment: Option<String>,
     /// Maximum depth of reflection/refraction recursion.
     pub max_depth: u32,
 }
@@ -287,6 +344,9 @@ impl std::fmt::Display for Effects {
         }
         if let Some(ao) = self.ambient_occlusion {
             parts.push(format!("ambient occlusion ({} samples)", ao.samples));
+        }
+        if let Some(e) = &self.environment {
+            parts.push(format!("environment light ({e})"));
         }
         write!(f, "effects: {}", parts.join(", "))
     }
@@ -357,6 +417,8 @@ pub struct World {
     pub terminator: Terminator,
     /// One-line warnings from building the world (materials out of range, ...).
     pub warnings: Vec<String>,
+    /// Environment light, only when the scene asks for it.
+    pub environment: Option<Environment>,
 }
 
 /// The default key light: from the upper left behind the camera, casting shadows.
@@ -502,6 +564,7 @@ impl World {
             shading: ShadingNormal::default(),
             terminator: Terminator::default(),
             warnings,
+            environment: None,
         })
     }
 
@@ -520,6 +583,13 @@ impl World {
             reflective: pick(Surface::reflects),
             refractive: pick(Surface::refracts),
             ambient_occlusion: self.ambient_occlusion,
+            environment: self.environment.as_ref().map(|e| {
+                let kind = match e.source {
+                    EnvironmentSource::Constant(_) => "constant",
+                    EnvironmentSource::Map { .. } => "map",
+                };
+                format!("{kind}, {} samples", e.samples)
+            }),
             max_depth: self.max_depth,
         }
     }
@@ -532,7 +602,10 @@ impl World {
 
     fn radiance(&self, ray: Ray, depth: u32, counts: &mut RayCounts, rng: &mut Rng) -> Vec3 {
         let Some(hit) = self.scene.intersect1(ray) else {
-            return self.background;
+            return match &self.environment {
+                Some(env) => env.radiance(ray.dir),
+                None => self.background,
+            };
         };
         let Some(obj) = self.objects.get(hit.geom_id as usize) else {
             return self.background;
@@ -547,6 +620,9 @@ impl World {
             let mut e = self.ambient;
             if let Some(ao) = self.ambient_occlusion {
                 e *= self.ambient_visibility(&sp, ao, counts, rng);
+            }
+            if let Some(env) = &self.environment {
+                e += self.environment_light(&sp, env, counts, rng);
             }
             let mut kd = s.kd * (1.0 - s.transmission);
             // The texture, only for textured objects.
@@ -733,6 +809,36 @@ impl World {
         // The sum rounds: its error joins the point's.
         let lifted = SurfacePoint { p, p_error: sp.p_error + gamma(1) * p.abs(), ..*sp };
         lifted.offset_origin(dir)
+    }
+
+    /// The environment's light at a shading point, as the mean radiance over `env.samples`
+    /// stratified cosine-weighted directions that nothing blocks (a diffuse surface reflects `kd`
+    /// times it: a white surface under a constant environment `L` shows `L`).
+    fn environment_light(
+        &self,
+        sp: &SurfacePoint,
+        env: &Environment,
+        counts: &mut RayCounts,
+        rng: &mut Rng,
+    ) -> Vec3 {
+        let n = env.samples.max(1);
+        let (t, b) = orthonormal_basis(sp.n);
+        let mut sum = Vec3::ZERO;
+        for k in 0..n {
+            let (a, c) = rng.stratified(k, n);
+            let r = a.sqrt();
+            let phi = std::f32::consts::TAU * c;
+            let d = r * phi.cos() * t + r * phi.sin() * b + (1.0 - a).max(0.0).sqrt() * sp.n;
+            if d.dot(sp.ng) <= 0.0 {
+                continue;
+            }
+            counts.environment += 1;
+            let o = sp.offset_origin(d);
+            if !self.scene.occluded1(Ray::new(o, d)) {
+                sum += env.radiance(d);
+            }
+        }
+        sum / n as f32
     }
 
     /// Fraction of the cosine-weighted hemisphere not blocked within `ao.distance`.
