@@ -136,3 +136,22 @@ fn bad_vt_lines_warn_with_the_line_and_load() {
     assert_eq!(scene.meshes[0].corner_uvs.len(), 2);
     assert_eq!(scene.meshes[0].corner_uvs[0][1], [1.0, 0.0]);
 }
+
+#[test]
+fn the_spiders_backslash_jpeg_textures_load() {
+    let dir = std::env::var_os("PHONGRT_CORPUS")
+        .map(std::path::PathBuf::from)
+        .unwrap_or_else(|| Path::new(env!("CARGO_MANIFEST_DIR")).join("../shared/corpus"));
+    let obj = dir.join("spider/spider.obj");
+    if !obj.exists() {
+        eprintln!("skipped: {} not found", obj.display());
+        return;
+    }
+    let scene = load_obj(&obj, &LoadOptions::default()).unwrap();
+    assert!(!scene.warnings.iter().any(|w| w.contains("not found")), "{:?}", scene.warnings);
+    let device = Device::new().unwrap();
+    let world = World::from_scene(&device, &scene, |_, _| ObjectSettings::new(ObjectMode::Flat)).unwrap();
+    assert!(world.warnings.is_empty(), "{:?}", world.warnings);
+    let textured = world.objects.iter().filter(|o| o.texture.is_some()).count();
+    assert_eq!(textured, world.objects.len(), "every spider part has a `.\\x.jpg` texture");
+}
