@@ -231,7 +231,7 @@ fn camera_errors_name_file_and_key() {
     .unwrap_err()
     .to_string();
     assert!(e.contains("c.toml") && e.contains("camera.up"), "{e}");
-    // Only part of the camera in the file: checked once the automatic framing is known.
+    // Only part of the camera in the file, the rest from a flag: checked once all are known.
     let toml =
         write(dir.path(), "u.toml", "obj = \"t.obj\"\n[camera]\nup = [0, 0, 1]\neye = [0.5, 0.5, 5]\n");
     let run = |extra: &[&str], scene: &Path| {
@@ -245,8 +245,11 @@ fn camera_errors_name_file_and_key() {
         assert!(!out.status.success());
         String::from_utf8_lossy(&out.stderr).into_owned()
     };
-    let err = run(&[], &toml);
-    assert!(err.contains("u.toml camera.up") && err.contains("u.toml camera.eye"), "{err}");
+    let err = run(&["--look-at", "0.5,0.5,0"], &toml);
+    assert!(
+        err.contains("u.toml camera.up") && err.contains("u.toml camera.eye") && err.contains("--look-at"),
+        "{err}"
+    );
     let obj = dir.path().join("t.obj");
     let err = run(&["--eye", "1,2,3", "--look-at", "1,2,3"], &obj);
     assert!(err.contains("--eye") && err.contains("--look-at"), "{err}");

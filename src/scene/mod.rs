@@ -151,6 +151,10 @@ pub struct Mesh {
     /// Per triangle edge `i` = (corner `i`, corner `i+1`).
     pub edge_kinds: Vec<[EdgeKind; 3]>,
     pub normals_source: NormalsSource,
+    /// Per triangle, the texture coordinates `(u, v)` of its corners (OBJ `vt`), kept per corner
+    /// so UV seams do not split vertices (and so do not turn smooth edges into creases). Empty
+    /// when the file gives none for this mesh; NaN at a corner without a usable one.
+    pub corner_uvs: Vec<[[f32; 2]; 3]>,
 }
 
 impl Mesh {
@@ -173,6 +177,7 @@ impl Mesh {
             position_ids,
             edge_kinds,
             normals_source: NormalsSource::FromFile,
+            corner_uvs: Vec::new(),
         }
     }
 
@@ -354,16 +359,16 @@ pub fn load_obj_text(text: &str, path: &Path, opts: &LoadOptions) -> Result<Scen
                 for m in lib.materials {
                     let tex = m.diffuse_texture.as_ref().map(|t| obj::resolve_file(&dir, t));
                     if let Some(t) = &tex {
-                        // Textures are not read; say when one could not be.
+                        // Say when a texture cannot be read (the render uses the flat Kd colour).
                         match std::fs::metadata(t) {
                             Ok(md) if md.is_file() => {}
                             Ok(_) => warnings.push(format!(
-                                "{}: texture {} is not a regular file (textures are not used)",
+                                "{}: texture {} is not a regular file; using the flat Kd colour",
                                 mtl_path.display(),
                                 t.display()
                             )),
                             Err(_) => warnings.push(format!(
-                                "{}: texture {} not found (textures are not used)",
+                                "{}: texture {} not found; using the flat Kd colour",
                                 mtl_path.display(),
                                 t.display()
                             )),
@@ -384,6 +389,12 @@ pub fn load_obj_text(text: &str, path: &Path, opts: &LoadOptions) -> Result<Scen
     }
     if raw.usemtl_without_mtllib && raw.mtllibs.is_empty() {
         warnings.push(format!("{name}: `usemtl` without `mtllib`; using a default material"));
+    }
+    if let Some(line) = raw.bad_texcoord_line {
+        warnings.push(format!(
+            "{name}:{line}: {} `vt` lines with more than 3 numbers or a non-finite one; those corners get no texture",
+            raw.bad_texcoords
+        ));
     }
     if raw.skipped_statements > 0 {
         warnings.push(format!(
@@ -600,7 +611,7 @@ fn build_mesh(
 
     // Drop degenerate triangles (repeated welded positions or zero area).
     // Per triangle: welded position ids, the file's unit normal per corner (if usable), smoothing group.
-    type Tri = ([u32; 3], [Option<Vec3>; 3], Option<u32>);
+    type Tri = ([u32; 3], [Option<Vec3>; 3], Option<u32>, [[f32; 2]; 3]);
     let mut tris: Vec<Tri> = Vec::new();
     for (t, s) in tri_corners.iter().zip(&tri_smooth) {
         let pid = t.map(|c| local(c.v));
@@ -620,7 +631,8 @@ fn build_mesh(
                 r
             })
         });
-        tris.push((pid, fnorm, *s));
+        let uv = t.map(|c| c.t.and_then(|i| raw.texcoords.get(i as usize).copied()).unwrap_or([f32::NAN; 2]));
+        tris.push((pid, fnorm, *s, uv));
     }
     if tris.is_empty() {
         return None;
@@ -629,19 +641,19 @@ fn build_mesh(
     // Face normals and corner angles, for computed normals.
     let face_n: Vec<Vec3> = tris
         .iter()
-        .map(|(p, _, _)| {
+        .map(|(p, _, _, _)| {
             let [a, b, c] = p.map(|q| wpos(q).as_dvec3());
             (b - a).cross(c - a).normalize_or_zero().as_vec3()
         })
         .collect();
     let mut incident: HashMap<u32, Vec<(usize, usize)>> = HashMap::new();
-    for (ti, (p, _, _)) in tris.iter().enumerate() {
+    for (ti, (p, _, _, _)) in tris.iter().enumerate() {
         for (k, &pid) in p.iter().enumerate() {
             incident.entry(pid).or_default().push((ti, k));
         }
     }
     let cos_crease = opts.crease_angle_deg.clamp(0.0, 180.0).to_radians().cos();
-    let any_smoothing = tris.iter().any(|(_, _, s)| s.is_some());
+    let any_smoothing = tris.iter().any(|(_, _, s, _)| s.is_some());
     let joins = |ti: usize, tj: usize| -> bool {
         let (si, sj) = (&tris[ti].2, &tris[tj].2);
         if any_smoothing {
@@ -710,7 +722,7 @@ fn build_mesh(
     let mut position_ids = Vec::new();
     let mut indices = Vec::with_capacity(tris.len());
     let (mut from_file, mut computed) = (0usize, 0usize);
-    for (ti, (p, fnorm, _)) in tris.iter().enumerate() {
+    for (ti, (p, fnorm, _, _)) in tris.iter().enumerate() {
         let mut tri = [0u32; 3];
         for k in 0..3 {
             let (n, file) = match fnorm[k] {
@@ -741,7 +753,22 @@ fn build_mesh(
         (0, _) => NormalsSource::Computed,
         _ => NormalsSource::Mixed,
     };
-    Some(Mesh { name, positions, normals, indices, material, position_ids, edge_kinds, normals_source })
+    let corner_uvs = if tris.iter().any(|t| t.3.iter().any(|uv| uv[0].is_finite())) {
+        tris.iter().map(|t| t.3).collect()
+    } else {
+        Vec::new()
+    };
+    Some(Mesh {
+        name,
+        positions,
+        normals,
+        indices,
+        material,
+        position_ids,
+        edge_kinds,
+        normals_source,
+        corner_uvs,
+    })
 }
 
 /// Classify every triangle edge by its neighbours on welded positions.
@@ -815,6 +842,7 @@ pub fn uv_sphere(segments: u32, rings: u32, radius: f32) -> Mesh {
         position_ids,
         edge_kinds,
         normals_source: NormalsSource::Computed,
+        corner_uvs: Vec::new(),
     }
 }
 

@@ -17,6 +17,8 @@ use super::{cut_token, SceneError};
 pub struct Corner {
     pub v: u32,
     pub n: Option<u32>,
+    /// Texture coordinate index (0-based, resolved).
+    pub t: Option<u32>,
 }
 
 /// A polygon as written in the file.
@@ -37,6 +39,11 @@ pub struct Face {
 pub struct RawObj {
     pub positions: Vec<Vec3>,
     pub normals: Vec<Vec3>,
+    /// `vt` coordinates `(u, v)`; NaN where the line was unusable (see `bad_texcoord_line`).
+    pub texcoords: Vec<[f32; 2]>,
+    /// The first `vt` line with more than 3 numbers or a non-finite one, and how many there are.
+    pub bad_texcoord_line: Option<usize>,
+    pub bad_texcoords: usize,
     pub faces: Vec<Face>,
     /// Object/group names in order of appearance (index 0 = "" before any `o`/`g`).
     pub groups: Vec<String>,
@@ -143,6 +150,16 @@ pub fn parse(text: &str, path: &Path) -> Result<RawObj, SceneError> {
                 if args.is_empty() {
                     return Err(malformed(path, line, "`vt` needs at least one number"));
                 }
+                // u [v [w]]: w is unused; more numbers, or a non-finite one, make it unusable.
+                let nums: Vec<f32> = args.iter().map(|a| a.parse::<f32>().unwrap_or(f32::NAN)).collect();
+                let uv = [nums[0], nums.get(1).copied().unwrap_or(0.0)];
+                if nums.len() > 3 || !nums.iter().all(|x| x.is_finite()) {
+                    obj.bad_texcoord_line.get_or_insert(line);
+                    obj.bad_texcoords += 1;
+                    obj.texcoords.push([f32::NAN; 2]);
+                } else {
+                    obj.texcoords.push(uv);
+                }
                 texcoords += 1;
             }
             "f" | "l" | "p" if args.len() < 3 || kw != "f" => {
@@ -169,14 +186,15 @@ pub fn parse(text: &str, path: &Path) -> Result<RawObj, SceneError> {
                         ));
                     }
                     let v = resolve(path, line, "vertex", v, obj.positions.len())?;
-                    if let Some(t) = t.filter(|t| !t.is_empty()) {
-                        resolve(path, line, "texture coordinate", t, texcoords)?;
-                    }
+                    let t = match t.filter(|t| !t.is_empty()) {
+                        Some(t) => Some(resolve(path, line, "texture coordinate", t, texcoords)?),
+                        None => None,
+                    };
                     let n = match n.filter(|n| !n.is_empty()) {
                         Some(n) => Some(resolve(path, line, "normal", n, obj.normals.len())?),
                         None => None,
                     };
-                    corners.push(Corner { v, n });
+                    corners.push(Corner { v, n, t });
                 }
                 obj.faces.push(Face { corners, smoothing, group, material: material.clone(), line });
             }

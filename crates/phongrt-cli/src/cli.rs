@@ -141,8 +141,9 @@ pub struct CameraArgs {
     /// Point the camera looks at "x,y,z" (default: the centre of the scene bounds).
     #[arg(long, value_parser = parse_vec3, allow_hyphen_values = true)]
     pub look_at: Option<Vec3>,
-    /// Camera up vector "x,y,z" [default: 0,1,0].
-    #[arg(long, value_parser = parse_vec3, allow_hyphen_values = true)]
+    /// The model's up axis: y, z (or -y, x, ...) or a vector "x,y,z" [default: detected: +z for a
+    /// model standing on a base low on z, else +y; see "Camera and framing" in the README].
+    #[arg(long, value_parser = parse_up, allow_hyphen_values = true)]
     pub up: Option<Vec3>,
     /// Vertical field of view in degrees, in (0, 180) [default: 35].
     #[arg(long)]
@@ -239,9 +240,10 @@ pub struct FarmArgs {
     /// Render only frame I of --frames N (0 <= I < N), for one scheduler task per frame.
     #[arg(long, value_name = "I", requires = "frames")]
     pub frame: Option<u32>,
-    /// Degrees of orbit about the up vector over all --frames (frame k turns k*DEG/N).
-    #[arg(long, value_name = "DEG", default_value_t = 360.0, allow_hyphen_values = true)]
-    pub orbit: f32,
+    /// Turn the view about the model's up axis by DEG degrees; with --frames N, frame k turns by
+    /// k*DEG/N [default: 0; with --frames: 360].
+    #[arg(long, value_name = "DEG", allow_hyphen_values = true)]
+    pub orbit: Option<f32>,
     /// Seed of the per-pixel sample streams (jitter, area lights, AO).
     #[arg(long, value_name = "N", default_value_t = 0)]
     pub seed: u64,
@@ -295,6 +297,27 @@ Exit status:
   0  success
   1  a tile cannot be read, or the output cannot be written
   2  the tiles overlap, leave a gap, or come from frames of different sizes";
+
+/// Parse an up axis: `x`, `y`, `z` (optionally signed) or "x,y,z" (not zero).
+pub fn parse_up(s: &str) -> Result<Vec3, String> {
+    let axis = match s.trim() {
+        "x" | "+x" => Some(Vec3::X),
+        "-x" => Some(-Vec3::X),
+        "y" | "+y" => Some(Vec3::Y),
+        "-y" => Some(-Vec3::Y),
+        "z" | "+z" => Some(Vec3::Z),
+        "-z" => Some(-Vec3::Z),
+        _ => None,
+    };
+    let v = match axis {
+        Some(v) => v,
+        None => parse_vec3(s).map_err(|e| format!("{e} (or an axis: x, y, z, -y, ...)"))?,
+    };
+    if v.length_squared() == 0.0 {
+        return Err("the up vector must not be zero".into());
+    }
+    Ok(v)
+}
 
 /// Parse "x,y,z" into a vector of finite numbers.
 pub fn parse_vec3(s: &str) -> Result<Vec3, String> {

@@ -353,6 +353,9 @@ fn plan(args: &RenderArgs, sf: Option<&SceneFile>) -> anyhow::Result<RenderPlan>
     }
 
     // Compute the frames.
+    if let Some(deg) = f.orbit.filter(|d| !d.is_finite()) {
+        usage!("--orbit {deg}: not a finite number of degrees");
+    }
     let frames = match f.frames {
         None => None,
         Some(0) => usage!("--frames 0: must be at least 1"),
@@ -362,10 +365,7 @@ fn plan(args: &RenderArgs, sf: Option<&SceneFile>) -> anyhow::Result<RenderPlan>
                     usage!("--frame {k}: out of range for --frames {n} (0..={})", n - 1);
                 }
             }
-            if !f.orbit.is_finite() {
-                usage!("--orbit {}: not a finite number of degrees", f.orbit);
-            }
-            Some(Frames { count: n, only: f.frame, orbit_deg: f.orbit })
+            Some(Frames { count: n, only: f.frame, orbit_deg: f.orbit.unwrap_or(360.0) })
         }
     };
 
@@ -549,48 +549,35 @@ fn render_cmd(args: RenderArgs) -> anyhow::Result<()> {
         .terminator
         .or(sf_render.and_then(|r| r.terminator.as_deref()).and_then(render::Terminator::from_name))
         .unwrap_or_default();
-    let sf_ground = sf.as_ref().and_then(|s| s.ground.clone());
-    let ground = (args.ground || sf_ground.is_some()).then(|| {
-        let up = args.camera.up.or(sf.as_ref().and_then(|s| s.camera.up).map(Vec3::from)).unwrap_or(Vec3::Y);
-        let g = sf_ground.unwrap_or_default();
-        render::Ground {
-            up: up.normalize_or_zero(),
-            height: g.height,
-            kd: g.kd.map_or(render::Ground::default().kd, Vec3::from),
+    // The camera: the default view (up axis detected unless given, three-quarter front view,
+    // --orbit), then the scene file's and the command line's settings over it.
+    let up_given = args.camera.up.or(sf.as_ref().and_then(|s| s.camera.up).map(Vec3::from));
+    let sf_camera = sf.as_ref().map(|s| s.camera.clone()).unwrap_or_default();
+    let single_orbit = if plan.frames.is_some() { None } else { args.farm.orbit };
+    let camera = {
+        let (mut camera, detection) = render::camera::default_view(
+            &input,
+            up_given,
+            single_orbit.or(sf_camera.orbit).unwrap_or(0.0),
+            args.camera.fov.or(sf_camera.fov),
+            width as f32 / height as f32,
+        );
+        if up_given.is_none() {
+            eprintln!("phongrt: {detection}");
         }
-    });
-
-    let build = |forced: Option<ObjectMode>| -> anyhow::Result<World> {
-        let mut world = World::from_scene_with_ground(&device, &input, ground, settings_for(forced))?;
-        world.shading = shading;
-        world.terminator = terminator;
-        if let Some(sf) = &sf {
-            apply_scene_file(&mut world, sf);
-        }
-        Ok(world)
-    };
-    let camera_for = |world: &World| -> anyhow::Result<Camera> {
-        let mut camera = Camera::frame_bounds(world.bounds.0, world.bounds.1, width as f32 / height as f32);
         // Where each setting came from, for the message when they do not make a camera.
-        let mut from = ["automatic framing".to_string(), "automatic framing".into(), "default".into()];
+        let mut from = ["automatic framing".to_string(), "automatic framing".into(), "detection".into()];
         let in_file = |key: &str| format!("{} camera.{key}", sf_path.display());
-        if let Some(sf) = &sf {
-            let c = &sf.camera;
-            if let Some(e) = c.eye {
-                camera.eye = Vec3::from(e);
-                from[0] = in_file("eye");
-            }
-            if let Some(l) = c.look_at {
-                camera.look_at = Vec3::from(l);
-                from[1] = in_file("look_at");
-            }
-            if let Some(u) = c.up {
-                camera.up = Vec3::from(u);
-                from[2] = in_file("up");
-            }
-            if let Some(f) = c.fov {
-                camera.fov_y_deg = f;
-            }
+        if let Some(e) = sf_camera.eye {
+            camera.eye = Vec3::from(e);
+            from[0] = in_file("eye");
+        }
+        if let Some(l) = sf_camera.look_at {
+            camera.look_at = Vec3::from(l);
+            from[1] = in_file("look_at");
+        }
+        if sf_camera.up.is_some() {
+            from[2] = in_file("up");
         }
         if let Some(e) = args.camera.eye {
             camera.eye = e;
@@ -600,12 +587,8 @@ fn render_cmd(args: RenderArgs) -> anyhow::Result<()> {
             camera.look_at = l;
             from[1] = "--look-at".into();
         }
-        if let Some(u) = args.camera.up {
-            camera.up = u;
+        if args.camera.up.is_some() {
             from[2] = "--up".into();
-        }
-        if let Some(f) = args.camera.fov {
-            camera.fov_y_deg = f;
         }
         // (A zero image size makes the framing infinite; render() refuses that size itself.)
         if let Some(p) = camera.problem().filter(|_| width > 0 && height > 0) {
@@ -625,20 +608,61 @@ fn render_cmd(args: RenderArgs) -> anyhow::Result<()> {
             }
             bail!("camera: {p} ({src})");
         }
-        Ok(camera)
+        camera
+    };
+    let up = camera.up.normalize_or_zero();
+    let sf_ground = sf.as_ref().and_then(|s| s.ground.clone());
+    let ground = (args.ground || sf_ground.is_some()).then(|| {
+        let g = sf_ground.unwrap_or_default();
+        render::Ground { up, height: g.height, kd: g.kd.map_or(render::Ground::default().kd, Vec3::from) }
+    });
+
+    let build = |forced: Option<ObjectMode>| -> anyhow::Result<World> {
+        let mut world = World::from_scene_with_ground(&device, &input, ground, settings_for(forced))?;
+        world.shading = shading;
+        world.terminator = terminator;
+        if forced.is_none() {
+            for w in &world.warnings {
+                eprintln!("phongrt: warning: {w}");
+            }
+        }
+        // The key light follows the camera, unless the scene file places lights.
+        world.lights = vec![Light::Directional {
+            direction: camera.key_light_direction(),
+            radiance: Vec3::splat(0.85),
+            shadows: true,
+        }];
+        if let Some(sf) = &sf {
+            apply_scene_file(&mut world, sf);
+            if let Some(e) = &sf.environment {
+                let source = match (&e.color, &e.map) {
+                    (Some(c), _) => render::EnvironmentSource::Constant(Vec3::from(*c)),
+                    (None, Some(m)) => {
+                        let base = if is_toml {
+                            args.scene.parent()
+                        } else {
+                            args.scene_file.as_deref().and_then(Path::parent)
+                        };
+                        let path = base.unwrap_or(Path::new(".")).join(m);
+                        let texture = render::Environment::load_map(&path).map_err(anyhow::Error::msg)?;
+                        render::EnvironmentSource::Map { texture: std::sync::Arc::new(texture), up }
+                    }
+                    (None, None) => bail!("environment: give color or map"),
+                };
+                world.environment = Some(render::Environment { source, samples: e.samples.unwrap_or(16) });
+            }
+        }
+        Ok(world)
     };
 
     if args.compare {
-        let alpha = match default_mode {
-            ObjectMode::Phong { alpha } => alpha,
-            ObjectMode::Flat => 1.0,
-        };
+        // Flat everywhere on the left; on the right each object as a plain render makes it (the
+        // scene file's and --object's per-object mode and alpha).
         let t = Instant::now();
         let flat = build(Some(ObjectMode::Flat))?;
-        let phong = build(Some(ObjectMode::Phong { alpha }))?;
+        let phong = build(None)?;
         stages.build = t.elapsed().as_secs_f64();
         eprintln!("phongrt: {}", phong.effects());
-        let camera = camera_for(&flat)?;
         let a = render::render(&flat, &camera, &settings)?;
         report("flat", &a);
         let b = render::render(&phong, &camera, &settings)?;
@@ -666,7 +690,7 @@ fn render_cmd(args: RenderArgs) -> anyhow::Result<()> {
     let world = build(None)?;
     stages.build = t.elapsed().as_secs_f64();
     eprintln!("phongrt: {}", world.effects());
-    let base = camera_for(&world)?;
+    let base = camera;
     let extent = RenderExtent { crop: plan.crop, alpha: plan.alpha };
     let mut frames = Vec::new();
     for (k, output) in plan.outputs() {
@@ -928,7 +952,7 @@ fn apply_scene_file(world: &mut World, sf: &SceneFile) {
     world.ambient_occlusion =
         sf.ambient_occlusion.map(|a| AmbientOcclusion { samples: a.samples, distance: a.distance });
     for o in &sf.objects {
-        for obj in world.objects.iter_mut().filter(|x| o.name == "*" || x.name == o.name) {
+        for obj in world.objects.iter_mut().filter(|x| !x.is_ground && (o.name == "*" || x.name == o.name)) {
             if let Some(kd) = o.kd {
                 obj.surface.kd = Vec3::from(kd);
             }
@@ -940,6 +964,12 @@ fn apply_scene_file(world: &mut World, sf: &SceneFile) {
             }
             if let Some(n) = o.ior {
                 obj.surface.ior = n;
+            }
+            if let Some(k) = o.specular {
+                obj.surface.specular = Vec3::from(k);
+            }
+            if let Some(n) = o.shininess {
+                obj.surface.shininess = n;
             }
         }
     }

@@ -110,3 +110,272 @@ impl CameraFrame {
         Some(((sx + 1.0) * 0.5 * width as f32, (1.0 - sy) * 0.5 * height as f32))
     }
 }
+
+/// The fraction of the frame's narrower extent that [`Camera::three_quarter`] fills.
+pub const DEFAULT_FILL: f32 = 0.8;
+
+/// How the default view is placed about a model (see [`Camera::three_quarter`]).
+#[derive(Clone, Copy, Debug, PartialEq)]
+pub struct ViewSpec {
+    /// The model's up axis (unit).
+    pub up: Vec3,
+    /// The direction the model's front faces (unit, perpendicular to `up`).
+    pub front: Vec3,
+    /// Extra turn of the camera about the model's up axis, degrees (counter-clockwise seen from above).
+    pub orbit_deg: f32,
+    /// Vertical field of view, degrees.
+    pub fov_y_deg: f32,
+    /// The fraction of the frame the model's projected vertices span in the tighter direction.
+    pub fill: f32,
+}
+
+impl ViewSpec {
+    /// The default view for a model whose up axis is `up`: the front by the exporters' convention
+    /// (see [`front_for_up`]), no orbit, 35 degree field of view, [`DEFAULT_FILL`].
+    pub fn for_up(up: Vec3) -> Self {
+        ViewSpec { up, front: front_for_up(up), orbit_deg: 0.0, fov_y_deg: 35.0, fill: DEFAULT_FILL }
+    }
+}
+
+/// The front of a model with up axis `up`, by the convention of the common exporters: a y-up
+/// OBJ (Blender's default export: forward -Z, up Y) has its front facing +z; a z-up file (Blender's
+/// own axes, CAD) has it facing -y, the side Blender's front view shows. Any other up: a
+/// perpendicular made from +z or -y.
+pub fn front_for_up(up: Vec3) -> Vec3 {
+    let up = up.normalize_or_zero();
+    let pick = if up.z.abs() > 0.9 { -Vec3::Y * up.z.signum() } else { Vec3::Z };
+    (pick - pick.dot(up) * up).try_normalize().unwrap_or(Vec3::X)
+}
+
+/// Azimuth of the default three-quarter view from the front, degrees (towards the model's left,
+/// the viewer's right).
+pub const THREE_QUARTER_AZIMUTH_DEG: f32 = 30.0;
+/// Elevation of the default view above the model's horizon, degrees.
+pub const THREE_QUARTER_ELEVATION_DEG: f32 = 20.0;
+
+impl Camera {
+    /// A three-quarter view of `points` (a model's vertices): from the front `spec.front`
+    /// turned [`THREE_QUARTER_AZIMUTH_DEG`] + `spec.orbit_deg` about `spec.up` and raised
+    /// [`THREE_QUARTER_ELEVATION_DEG`], aimed and placed so the points' projection is centred
+    /// and spans `spec.fill` of the frame in the tighter direction. The centre starts at the
+    /// centre of `bounds`; two passes re-aim at the projected extent's centre. `None` for no
+    /// points or a degenerate spec.
+    pub fn three_quarter(
+        points: &[Vec3],
+        bounds: (Vec3, Vec3),
+        spec: &ViewSpec,
+        aspect: f32,
+    ) -> Option<Camera> {
+        let up = spec.up.try_normalize()?;
+        let front = (spec.front - spec.front.dot(up) * up).try_normalize()?;
+        if points.is_empty() || !(spec.fill > 0.0 && spec.fill <= 1.0) || !(aspect > 0.0) {
+            return None;
+        }
+        // Compute the view direction (from the model towards the eye).
+        let az = (THREE_QUARTER_AZIMUTH_DEG + spec.orbit_deg).to_radians();
+        let el = THREE_QUARTER_ELEVATION_DEG.to_radians();
+        let side = up.cross(front); // the model's left, the viewer's right
+        let horiz = az.cos() * front + az.sin() * side;
+        let back = (el.cos() * horiz + el.sin() * up).normalize();
+        let right = (-back).cross(up).try_normalize()?;
+        let cup = right.cross(-back);
+        let ty = (0.5 * spec.fov_y_deg).to_radians().tan();
+        let tx = ty * aspect;
+        if !(ty > 0.0 && ty.is_finite()) {
+            return None;
+        }
+        // Compute the distance that fits every point, then re-centre on the projected extent.
+        let mut center = 0.5 * (bounds.0 + bounds.1);
+        let mut dist = 0.0f32;
+        for _pass in 0..3 {
+            dist = points.iter().fold(0.0f32, |d, p| {
+                let q = *p - center;
+                let z = q.dot(back);
+                d.max(z + q.dot(right).abs() / (spec.fill * tx)).max(z + q.dot(cup).abs() / (spec.fill * ty))
+            });
+            let (mut lo, mut hi) = (Vec3::splat(f32::INFINITY), Vec3::splat(f32::NEG_INFINITY));
+            for p in points {
+                let q = *p - center;
+                let depth = (dist - q.dot(back)).max(1e-12);
+                let s = Vec3::new(q.dot(right) / depth, q.dot(cup) / depth, 0.0);
+                lo = lo.min(s);
+                hi = hi.max(s);
+            }
+            let mid = 0.5 * (lo + hi);
+            center += dist * (mid.x * right + mid.y * cup);
+        }
+        let dist = dist.max(1e-6);
+        Some(Camera { eye: center + dist * back, look_at: center, up, fov_y_deg: spec.fov_y_deg })
+    }
+
+    /// The key light's direction for this camera (unit, towards the light): from the upper left
+    /// of the camera and in front of the model, so the side facing the camera is the lit side.
+    pub fn key_light_direction(&self) -> Vec3 {
+        let back = (self.eye - self.look_at).normalize_or_zero();
+        let right = (-back).cross(self.up).normalize_or_zero();
+        let up = right.cross(-back);
+        (-0.5 * right + 0.7 * up + 0.6 * back).try_normalize().unwrap_or(back)
+    }
+}
+
+/// The default camera for a loaded scene: the up axis given or detected ([`detect_up`]), the
+/// three-quarter view of its vertices ([`Camera::three_quarter`]) turned by `orbit_deg`, with
+/// field of view `fov_y_deg` (35 degrees by default). Returns the detection too (for reporting).
+pub fn default_view(
+    scene: &phongrt::scene::Scene,
+    up: Option<Vec3>,
+    orbit_deg: f32,
+    fov_y_deg: Option<f32>,
+    aspect: f32,
+) -> (Camera, UpDetection) {
+    let detection = detect_up(
+        scene.meshes.iter().flat_map(|m| m.indices.iter().map(|t| t.map(|i| m.positions[i as usize]))),
+    );
+    let mut spec = match up {
+        Some(up) => ViewSpec::for_up(up),
+        None => ViewSpec { front: detection.front, ..ViewSpec::for_up(detection.up) },
+    };
+    spec.orbit_deg = orbit_deg;
+    if let Some(f) = fov_y_deg {
+        spec.fov_y_deg = f;
+    }
+    let points: Vec<Vec3> = scene.meshes.iter().flat_map(|m| m.positions.iter().copied()).collect();
+    let (lo, hi) = scene.bounds();
+    let camera = Camera::three_quarter(&points, (lo, hi), &spec, aspect)
+        .unwrap_or_else(|| Camera { up: spec.up, ..Camera::frame_bounds(lo, hi, aspect) });
+    (camera, detection)
+}
+
+/// The up axis and front [`detect_up`] chose, and the evidence.
+#[derive(Clone, Copy, Debug, PartialEq)]
+pub struct UpDetection {
+    pub up: Vec3,
+    /// The front (see [`front_for_up`]; for a flat model, the side its faces point to).
+    pub front: Vec3,
+    /// Area of the base facing down along y and z, as fractions of the total area.
+    pub base_y: f32,
+    pub base_z: f32,
+    /// The axis a flat model (thinner than 1/1000 of its diagonal) lies across, if any.
+    pub flat_axis: Option<usize>,
+}
+
+impl std::fmt::Display for UpDetection {
+    fn fmt(&self, f: &mut std::fmt::Formatter<'_>) -> std::fmt::Result {
+        let axis = |v: Vec3| {
+            let a = v.abs();
+            let k = if a.x >= a.y && a.x >= a.z {
+                0
+            } else if a.y >= a.z {
+                1
+            } else {
+                2
+            };
+            format!("{}{}", if v[k] < 0.0 { "-" } else { "+" }, ["x", "y", "z"][k])
+        };
+        match self.flat_axis {
+            Some(k) => write!(
+                f,
+                "up {}, front {} (a flat model across {}: seen from the side its faces point to)",
+                axis(self.up),
+                axis(self.front),
+                ["x", "y", "z"][k]
+            ),
+            None => write!(
+                f,
+                "up {}, front {} (base {:.1}% of the area on z, {:.1}% on y)",
+                axis(self.up),
+                axis(self.front),
+                100.0 * self.base_z,
+                100.0 * self.base_y
+            ),
+        }
+    }
+}
+
+/// Detect whether a model stands on +y or +z. Most OBJ files are y-up (the format's de facto
+/// convention), but CAD and Blender-native files are z-up. The cue is the base a model stands on:
+/// the area of triangles facing along the axis (normal within 18 degrees of it) whose three corners
+/// all lie within 0.2% of the bounds' diagonal of the bounds' minimum along it: a flat face at
+/// the very bottom (a curved wall touching the bottom contributes only slivers). A z-up model (a
+/// mug, a machine part) has a large flat base low on z; a y-up one low on y, or none (an animal
+/// on its legs). `+z` is chosen only when its
+/// base is more than twice y's and at least 0.5% of the total area; else `+y`. A flat model
+/// (thinner than 1/1000 of its diagonal along an axis) is seen face-on instead: its front is the
+/// side its area-weighted normals point to, its up +y (or +z when it lies across y).
+///
+/// The front is the exporters' convention ([`front_for_up`]) except for a model that is long
+/// along a horizontal axis (at least 1.3 times its other horizontal extent): an animal or a
+/// vehicle, whose front is the end where its highest parts are (see [`head_end`]).
+pub fn detect_up(triangles: impl Iterator<Item = [Vec3; 3]> + Clone) -> UpDetection {
+    let triangles_for_front = triangles.clone();
+    let (mut lo, mut hi) = (Vec3::splat(f32::INFINITY), Vec3::splat(f32::NEG_INFINITY));
+    for t in triangles.clone() {
+        for p in t {
+            lo = lo.min(p);
+            hi = hi.max(p);
+        }
+    }
+    let ext = (hi - lo).max(Vec3::ZERO);
+    let diag = ext.length();
+    let cos18 = 18f32.to_radians().cos();
+    let (mut total, mut by, mut bz) = (0.0f64, 0.0f64, 0.0f64);
+    let mut normal_sum = Vec3::ZERO;
+    for [a, b, c] in triangles {
+        let n2 = (b - a).cross(c - a);
+        let area = 0.5 * n2.length();
+        if !(area > 0.0) {
+            continue;
+        }
+        let n = n2 / (2.0 * area);
+        let low = |k: usize| [a, b, c].iter().all(|p| p[k] - lo[k] <= 2e-3 * diag);
+        total += area as f64;
+        normal_sum += 0.5 * n2;
+        // Either winding counts: meshes are not always oriented outwards.
+        if n.y.abs() > cos18 && low(1) {
+            by += area as f64;
+        }
+        if n.z.abs() > cos18 && low(2) {
+            bz += area as f64;
+        }
+    }
+    let total = total.max(f64::MIN_POSITIVE);
+    let (base_y, base_z) = ((by / total) as f32, (bz / total) as f32);
+    let flat_axis = (0..3).find(|&k| ext[k] <= 1e-3 * diag && diag > 0.0);
+    if let Some(k) = flat_axis {
+        let mut front = Vec3::ZERO;
+        front[k] = if normal_sum[k] < 0.0 { -1.0 } else { 1.0 };
+        let up = if k == 1 { Vec3::Z } else { Vec3::Y };
+        return UpDetection { up, front, base_y, base_z, flat_axis };
+    }
+    let up = if base_z > 2.0 * base_y && base_z > 0.005 { Vec3::Z } else { Vec3::Y };
+    let front = head_end(triangles_for_front, lo, hi, up).unwrap_or_else(|| front_for_up(up));
+    UpDetection { up, front, base_y, base_z, flat_axis }
+}
+
+/// For a model long along one horizontal axis (1.3 times the other horizontal extent or more),
+/// the end of that axis where its top is: the centroid of the corners in the highest 10% of the
+/// height lies more than 10% of the length from the middle (a quadruped's head and horns, a duck's
+/// head). `None` for a compact or symmetric model.
+fn head_end(triangles: impl Iterator<Item = [Vec3; 3]>, lo: Vec3, hi: Vec3, up: Vec3) -> Option<Vec3> {
+    let (ax, bx) = if up.z.abs() > 0.5 { (Vec3::X, Vec3::Y) } else { (Vec3::X, Vec3::Z) };
+    let ext = hi - lo;
+    let (la, lb) = (ext.dot(ax), ext.dot(bx));
+    let (long, len) = if la >= 1.3 * lb {
+        (ax, la)
+    } else if lb >= 1.3 * la {
+        (bx, lb)
+    } else {
+        return None;
+    };
+    let (top, height) = (hi.dot(up), ext.dot(up));
+    let mid = (0.5 * (lo + hi)).dot(long);
+    let (mut sum, mut n) = (0.0f64, 0u64);
+    for p in triangles.flatten() {
+        if p.dot(up) >= top - 0.1 * height {
+            sum += (p.dot(long) - mid) as f64;
+            n += 1;
+        }
+    }
+    let offset = (sum / n.max(1) as f64) as f32;
+    (n > 0 && offset.abs() > 0.1 * len).then(|| long * offset.signum())
+}

@@ -6,6 +6,7 @@ pub mod image_out;
 pub mod scene_file;
 pub mod smoothness;
 pub mod text;
+pub mod texture;
 pub mod world;
 
 use std::io::IsTerminal;
@@ -15,10 +16,11 @@ use std::time::{Duration, Instant};
 use glam::Vec3;
 use rayon::prelude::*;
 
-pub use camera::{Camera, CameraFrame, CameraProblem};
+pub use camera::{detect_up, Camera, CameraFrame, CameraProblem, UpDetection, ViewSpec};
 pub use image_out::{linear_to_srgb, Image, Window};
 pub use world::{
-    AmbientOcclusion, Effects, Ground, Light, ObjectMode, ObjectSettings, Rng, Surface, Terminator, World,
+    AmbientOcclusion, Effects, Environment, EnvironmentSource, Ground, Light, ObjectMode, ObjectSettings,
+    Rng, Surface, Terminator, World,
 };
 
 use phongrt::embree::{self, EmbreeError, PhongMeshError, Ray};
@@ -136,6 +138,12 @@ pub struct RayCounts {
     pub terminator: u64,
     /// Primary rays traced only to find the alpha channel (coverage), when asked for.
     pub coverage: u64,
+    /// Highlight-lobe evaluations (not rays; glossy materials only).
+    pub specular: u64,
+    /// Texture lookups (not rays; textured materials only).
+    pub texture: u64,
+    /// Shadow rays towards the environment light (only with `[environment]`).
+    pub environment: u64,
 }
 
 impl RayCounts {
@@ -147,6 +155,7 @@ impl RayCounts {
             + self.ambient_occlusion
             + self.terminator
             + self.coverage
+            + self.environment
     }
 
     fn add(&mut self, o: &RayCounts) {
@@ -157,6 +166,9 @@ impl RayCounts {
         self.ambient_occlusion += o.ambient_occlusion;
         self.terminator += o.terminator;
         self.coverage += o.coverage;
+        self.specular += o.specular;
+        self.texture += o.texture;
+        self.environment += o.environment;
     }
 }
 
@@ -170,12 +182,20 @@ impl std::fmt::Display for RayCounts {
             (self.ambient_occlusion, "ambient occlusion"),
             (self.terminator, "terminator lift"),
             (self.coverage, "coverage"),
+            (self.environment, "environment"),
         ] {
             if n > 0 {
                 write!(f, ", {n} {k}")?;
             }
         }
-        write!(f, ")")
+        write!(f, ")")?;
+        if self.specular > 0 {
+            write!(f, ", {} specular evaluations", self.specular)?;
+        }
+        if self.texture > 0 {
+            write!(f, ", {} texture lookups", self.texture)?;
+        }
+        Ok(())
     }
 }
 

@@ -23,6 +23,8 @@
 //! mode = "phong"                  # or "flat"
 //! alpha = 0.75
 //! mirror = [0.5, 0.5, 0.5]        # optional material overrides
+//! specular = [0.4, 0.4, 0.4]      # a Blinn-Phong highlight (MTL Ks), with
+//! shininess = 64.0                # its exponent (MTL Ns)
 //! ```
 
 use std::path::{Path, PathBuf};
@@ -65,6 +67,18 @@ pub struct SceneFile {
     pub crease_angle: Option<f32>,
     /// A ground plane under the scene, receiving its shadows.
     pub ground: Option<GroundSection>,
+    /// Light from all around: a constant colour or an equirectangular map.
+    pub environment: Option<EnvironmentSection>,
+}
+
+/// `[environment]`: `color = [r, g, b]` or `map = "sky.hdr"` (.hdr or .exr, relative to the scene
+/// file), sampled by `samples` shadow rays per shading point (default 16).
+#[derive(Debug, Default, Deserialize, Clone, PartialEq)]
+#[serde(deny_unknown_fields)]
+pub struct EnvironmentSection {
+    pub color: Option<[f32; 3]>,
+    pub map: Option<PathBuf>,
+    pub samples: Option<u32>,
 }
 
 /// `[ground]`: a flat diffuse plane perpendicular to the camera's up.
@@ -87,6 +101,8 @@ pub struct CameraSection {
     #[serde(default, deserialize_with = "opt_vec3")]
     pub up: Option<[f32; 3]>,
     pub fov: Option<f32>,
+    /// Turn the default view about the model's up axis (degrees).
+    pub orbit: Option<f32>,
 }
 
 #[derive(Debug, Default, Deserialize, Clone, PartialEq)]
@@ -179,6 +195,10 @@ pub struct ObjectSection {
     pub mirror: Option<[f32; 3]>,
     pub transmission: Option<f32>,
     pub ior: Option<f32>,
+    /// Highlight reflectance (as MTL `Ks` with `illum 2`), each in [0, 1].
+    pub specular: Option<[f32; 3]>,
+    /// Highlight exponent (as MTL `Ns`), >= 0.
+    pub shininess: Option<f32>,
 }
 
 #[derive(Debug, Deserialize, Clone, Copy, PartialEq)]
@@ -298,6 +318,9 @@ impl SceneFile {
                 }
             }
         }
+        if let Some(o) = c.orbit {
+            finite("camera.orbit", &[o])?;
+        }
         if let Some(f) = c.fov {
             if !(f > 0.0 && f < 180.0) {
                 return Err(bad("camera.fov".into(), format!("{f} is not in (0, 180) degrees")));
@@ -367,6 +390,17 @@ impl SceneFile {
                     nonneg(&key(k), &v)?;
                 }
             }
+            if let Some(v) = o.specular {
+                nonneg(&key("specular"), &v)?;
+                if v.iter().any(|&x| x > 1.0) {
+                    return Err(bad(key("specular"), format!("{v:?} has a value above 1")));
+                }
+            }
+            if let Some(n) = o.shininess {
+                if !(n.is_finite() && n >= 0.0) {
+                    return Err(bad(key("shininess"), format!("{n} is not a number >= 0")));
+                }
+            }
             if let Some(t) = o.transmission {
                 if !(0.0..=1.0).contains(&t) {
                     return Err(bad(key("transmission"), format!("{t} is not in [0, 1]")));
@@ -411,6 +445,18 @@ impl SceneFile {
             }
             if let Some(kd) = g.kd {
                 nonneg("ground.kd", &kd)?;
+            }
+        }
+        if let Some(e) = &self.environment {
+            match (e.color, &e.map) {
+                (Some(c), None) => nonneg("environment.color", &c)?,
+                (None, Some(_)) => {}
+                _ => return Err(bad("environment".into(), "give exactly one of color and map".into())),
+            }
+            if let Some(n) = e.samples {
+                if n == 0 || n > 4096 {
+                    return Err(bad("environment.samples".into(), format!("{n} is not in 1..=4096")));
+                }
             }
         }
         if let Some(a) = self.crease_angle {

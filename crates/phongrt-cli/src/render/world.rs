@@ -2,8 +2,11 @@
 //! (user geometry), with materials and lights; and the integrator, which simulates only the
 //! effects the scene calls for (see [`Effects`]).
 
-use glam::Vec3;
+use std::path::Path;
 
+use glam::{Vec2, Vec3};
+
+use super::texture::Texture;
 use super::{RayCounts, RenderError};
 use phongrt::embree::{Device, GeometryOptions, Hit, PhongMesh, Ray, Scene, UserGeometryOptions};
 use phongrt::phong::accuracy::SplitMix;
@@ -51,22 +54,83 @@ pub struct Surface {
     pub transmission: f32,
     /// Index of refraction (MTL `Ni`).
     pub ior: f32,
+    /// Specular reflectance of the highlight lobe (MTL `Ks` with `illum` >= 2); zero = no
+    /// specular evaluation.
+    pub specular: Vec3,
+    /// The Blinn-Phong exponent (MTL `Ns`); 0 = no lobe.
+    pub shininess: f32,
 }
 
 impl Surface {
     pub fn diffuse(kd: Vec3) -> Self {
-        Surface { kd, mirror: Vec3::ZERO, transmission: 0.0, ior: 1.0 }
+        Surface { kd, mirror: Vec3::ZERO, transmission: 0.0, ior: 1.0, specular: Vec3::ZERO, shininess: 0.0 }
     }
 
     /// The surface an MTL material calls for.
     pub fn from_material(m: &sc::Material) -> Self {
+        Self::from_material_checked(m, Path::new("")).0
+    }
+
+    /// As [`Surface::from_material`], with a one-line warning (naming `file` and the material)
+    /// for each value out of range and clamped: a negative `Ns`, a `Ks` above 1.
+    pub fn from_material_checked(m: &sc::Material, file: &Path) -> (Self, Vec<String>) {
+        let mut warnings = Vec::new();
+        let ks = if m.ks.is_finite() { m.ks.max(Vec3::ZERO) } else { Vec3::ZERO };
+        let ks = if ks.max_element() > 1.0 {
+            warnings.push(format!(
+                "{}: material {:?}: Ks {} {} {} is above 1; clamped to 1",
+                file.display(),
+                m.name,
+                m.ks.x,
+                m.ks.y,
+                m.ks.z
+            ));
+            ks.min(Vec3::ONE)
+        } else {
+            ks
+        };
+        let ns = if m.ns.is_finite() { m.ns } else { 0.0 };
+        let ns = if ns < 0.0 {
+            warnings.push(format!(
+                "{}: material {:?}: Ns {} is negative; clamped to 0 (no highlight)",
+                file.display(),
+                m.name,
+                m.ns
+            ));
+            0.0
+        } else {
+            ns.min(1e4)
+        };
         let mirror = match m.illum {
-            Some(3 | 5 | 7) => m.ks,
+            Some(3 | 5 | 7) => ks,
             _ => Vec3::ZERO,
+        };
+        // A highlight for illum >= 2 with Ks > 0 and Ns > 0 (Ns = 0 is a uniform lobe: no highlight).
+        let (specular, shininess) = match m.illum {
+            Some(i) if i >= 2 && ns > 0.0 => (ks, ns),
+            _ => (Vec3::ZERO, 0.0),
         };
         let transmission = (1.0 - m.dissolve).clamp(0.0, 1.0);
         let ior = if m.ni.is_finite() && m.ni >= 1.0 { m.ni } else { 1.0 };
-        Surface { kd: m.kd, mirror, transmission, ior }
+        (Surface { kd: m.kd, mirror, transmission, ior, specular, shininess }, warnings)
+    }
+
+    /// Whether the surface has a highlight lobe (specular evaluation per light).
+    pub fn glossy(&self) -> bool {
+        self.specular.max_element() > 0.0 && self.shininess > 0.0
+    }
+
+    /// The normalised Blinn-Phong lobe, `Ks (Ns + 8) / 8 (n·h)^Ns` (the `1/pi` of the energy
+    /// normalisation `(Ns + 8) / (8 pi)` cancels against this renderer's light units, in which a
+    /// diffuse surface reflects `Kd E`), for the shading normal `n`, the direction to the viewer
+    /// `v` and to the light `l` (unit).
+    pub fn blinn_phong(&self, n: Vec3, v: Vec3, l: Vec3) -> Vec3 {
+        let Some(h) = (v + l).try_normalize() else { return Vec3::ZERO };
+        let c = n.dot(h);
+        if !(c > 0.0) {
+            return Vec3::ZERO;
+        }
+        self.specular * ((self.shininess + 8.0) / 8.0 * c.powf(self.shininess))
     }
 
     pub fn reflects(&self) -> bool {
@@ -166,6 +230,61 @@ impl Ground {
     }
 }
 
+/// Where environment light comes from.
+#[derive(Clone, Debug)]
+pub enum EnvironmentSource {
+    /// The same radiance from every direction.
+    Constant(Vec3),
+    /// An equirectangular (latitude-longitude) map of linear radiance, its top row towards `up`.
+    Map { texture: std::sync::Arc<Texture>, up: Vec3 },
+}
+
+/// Light from all around (scene file `[environment]`): sampled by `samples` cosine-weighted
+/// shadow rays per shading point, and seen by rays that leave the scene. Only when asked for.
+#[derive(Clone, Debug)]
+pub struct Environment {
+    pub source: EnvironmentSource,
+    pub samples: u32,
+}
+
+impl Environment {
+    /// Read an equirectangular `.hdr` or `.exr` map (linear radiance). One-line error naming the
+    /// file if it is missing, cannot be decoded, or holds a non-finite or negative value.
+    pub fn load_map(path: &Path) -> Result<Texture, String> {
+        let img =
+            image::open(path).map_err(|e| format!("{}: cannot read environment map: {e}", path.display()))?;
+        let rgb = img.to_rgb32f();
+        let texels: Vec<Vec3> = rgb.pixels().map(|p| Vec3::new(p[0], p[1], p[2])).collect();
+        if let Some(i) = texels.iter().position(|t| !t.is_finite() || t.min_element() < 0.0) {
+            return Err(format!(
+                "{}: environment map has a non-finite or negative value at pixel {i}",
+                path.display()
+            ));
+        }
+        Texture::from_linear(rgb.width(), rgb.height(), texels)
+            .ok_or_else(|| format!("{}: environment map has no pixels", path.display()))
+    }
+
+    /// The radiance arriving from direction `d` (towards the environment; need not be unit).
+    pub fn radiance(&self, d: Vec3) -> Vec3 {
+        match &self.source {
+            EnvironmentSource::Constant(c) => *c,
+            EnvironmentSource::Map { texture, up } => {
+                let d = d.normalize_or_zero();
+                // Compute the direction in the map's frame: y along `up`.
+                let (x, y, z) = if up.z.abs() > 0.5 {
+                    (d.x, d.z * up.z.signum(), -d.y * up.z.signum())
+                } else {
+                    (d.x, d.y, d.z)
+                };
+                let u = 0.5 + x.atan2(-z) / std::f32::consts::TAU;
+                let theta = y.clamp(-1.0, 1.0).acos();
+                texture.sample_latlong(u, theta / std::f32::consts::PI)
+            }
+        }
+    }
+}
+
 /// Ambient occlusion, only when asked for.
 #[derive(Clone, Copy, Debug, PartialEq)]
 pub struct AmbientOcclusion {
@@ -181,10 +300,16 @@ pub struct Effects {
     pub shadow_lights: Vec<usize>,
     /// Lights with soft shadows (area lights).
     pub soft_shadow_lights: Vec<usize>,
+    /// Objects with a highlight lobe (MTL `illum` >= 2, `Ks`, `Ns` > 0).
+    pub glossy: Vec<String>,
+    /// Objects with a `map_Kd` texture.
+    pub textured: Vec<String>,
     /// Objects whose material reflects / refracts (names).
     pub reflective: Vec<String>,
     pub refractive: Vec<String>,
     pub ambient_occlusion: Option<AmbientOcclusion>,
+    /// Environment light: its kind and samples per shading point.
+    pub environment: Option<String>,
     /// Maximum depth of reflection/refraction recursion.
     pub max_depth: u32,
 }
@@ -192,20 +317,35 @@ pub struct Effects {
 impl std::fmt::Display for Effects {
     fn fmt(&self, f: &mut std::fmt::Formatter<'_>) -> std::fmt::Result {
         let mut parts = vec!["direct lighting".to_string()];
-        if !self.shadow_lights.is_empty() {
-            parts.push(format!("shadows ({} lights)", self.shadow_lights.len()));
+        // Area lights are counted once, as soft shadows.
+        let hard = self.shadow_lights.iter().filter(|i| !self.soft_shadow_lights.contains(i)).count();
+        if hard > 0 {
+            parts.push(format!("shadows ({hard} lights)"));
         }
         if !self.soft_shadow_lights.is_empty() {
             parts.push(format!("soft shadows ({} area lights)", self.soft_shadow_lights.len()));
+        }
+        if !self.glossy.is_empty() {
+            parts.push(format!("highlights ({} objects)", self.glossy.len()));
+        }
+        if !self.textured.is_empty() {
+            parts.push(format!("textures ({} objects)", self.textured.len()));
         }
         if !self.reflective.is_empty() {
             parts.push(format!("reflection ({} objects)", self.reflective.len()));
         }
         if !self.refractive.is_empty() {
             parts.push(format!("refraction ({} objects)", self.refractive.len()));
+            parts.push(format!("Fresnel reflection ({} objects)", self.refractive.len()));
+            if !self.shadow_lights.is_empty() {
+                parts.push(format!("shadows through glass ({} objects)", self.refractive.len()));
+            }
         }
         if let Some(ao) = self.ambient_occlusion {
             parts.push(format!("ambient occlusion ({} samples)", ao.samples));
+        }
+        if let Some(e) = &self.environment {
+            parts.push(format!("environment light ({e})"));
         }
         write!(f, "effects: {}", parts.join(", "))
     }
@@ -222,6 +362,25 @@ pub struct Object {
     pub surface: Surface,
     /// The patches, for Phong objects (shared with the Embree geometry's copy).
     pub phong: Option<PhongMesh>,
+    /// The ground plane (not a scene object: `[[object]] name = "*"` leaves it alone).
+    pub is_ground: bool,
+    /// The `map_Kd` texture (multiplying `kd`, as MTL defines it), with the corners' `vt` per
+    /// triangle; `None` without a usable texture or texture coordinates.
+    pub texture: Option<TextureBinding>,
+}
+
+/// A texture shared between objects, with one object's corner texture coordinates per triangle.
+pub type TextureBinding = (std::sync::Arc<Texture>, Vec<[[f32; 2]; 3]>);
+
+impl Object {
+    /// The texture coordinates at `(u, v)` of triangle `prim`, by the barycentric weights
+    /// `1-u-v, u, v` the hit reports (Phong patches use the same `u, v`).
+    pub fn texcoord(uvs: &[[[f32; 2]; 3]], prim: u32, u: f32, v: f32) -> Option<Vec2> {
+        let t = uvs.get(prim as usize)?;
+        let c = |k: usize| Vec2::from(t[k]);
+        let uv = (1.0 - u - v) * c(0) + u * c(1) + v * c(2);
+        uv.is_finite().then_some(uv)
+    }
 }
 
 /// Per-object choices (from the CLI or a scene file).
@@ -255,6 +414,10 @@ pub struct World {
     pub shading: ShadingNormal,
     /// The terminator rule of Phong objects (flat ones keep the classic faceted terminator).
     pub terminator: Terminator,
+    /// One-line warnings from building the world (materials out of range, ...).
+    pub warnings: Vec<String>,
+    /// Environment light, only when the scene asks for it.
+    pub environment: Option<Environment>,
 }
 
 /// The default key light: from the upper left behind the camera, casting shadows.
@@ -286,6 +449,9 @@ impl World {
     ) -> Result<World, RenderError> {
         let mut scene = Scene::new(device)?;
         let mut objects = Vec::with_capacity(input.meshes.len());
+        let mut warnings = Vec::new();
+        type Loaded = Result<std::sync::Arc<Texture>, String>;
+        let mut textures: Vec<(std::path::PathBuf, Loaded)> = Vec::new();
         for (i, mesh) in input.meshes.iter().enumerate() {
             let s = settings(i, mesh);
             let mut phong = None;
@@ -315,11 +481,46 @@ impl World {
             if id as usize != objects.len() {
                 return Err(RenderError::UnexpectedGeomId(id));
             }
-            let surface = mesh
-                .material
-                .and_then(|m| input.materials.get(m))
-                .map(Surface::from_material)
-                .unwrap_or(Surface::diffuse(Vec3::splat(0.7)));
+            let surface = match mesh.material.and_then(|m| input.materials.get(m)) {
+                Some(m) => {
+                    let (s, w) = Surface::from_material_checked(m, &input.path);
+                    for w in w {
+                        if !warnings.contains(&w) {
+                            warnings.push(w);
+                        }
+                    }
+                    s
+                }
+                None => Surface::diffuse(Vec3::splat(0.7)),
+            };
+            // The diffuse texture, loaded once per file, where the mesh has texture coordinates.
+            let mut texture = None;
+            let tex_path =
+                mesh.material.and_then(|m| input.materials.get(m)).and_then(|m| m.diffuse_texture.clone());
+            if let Some(path) = tex_path.filter(|p| p.exists()) {
+                if mesh.corner_uvs.is_empty() {
+                    let w = format!(
+                        "{}: object {:?} has a texture ({}) but no `vt` coordinates; using the flat Kd colour",
+                        input.path.display(),
+                        mesh.name,
+                        path.display()
+                    );
+                    warnings.push(w);
+                } else {
+                    let loaded = match textures.iter().find(|(p, _)| *p == path) {
+                        Some((_, t)) => t.clone(),
+                        None => {
+                            let t = Texture::load(&path).map(std::sync::Arc::new);
+                            if let Err(e) = &t {
+                                warnings.push(format!("{e}; using the flat Kd colour"));
+                            }
+                            textures.push((path.clone(), t.clone()));
+                            t
+                        }
+                    };
+                    texture = loaded.ok().map(|t| (t, mesh.corner_uvs.clone()));
+                }
+            }
             objects.push(Object {
                 name: mesh.name.clone(),
                 mode: s.mode,
@@ -328,6 +529,8 @@ impl World {
                 indices: mesh.indices.clone(),
                 surface,
                 phong,
+                is_ground: false,
+                texture,
             });
         }
         if let Some(g) = ground {
@@ -347,6 +550,8 @@ impl World {
                 indices,
                 surface: Surface::diffuse(g.kd),
                 phong: None,
+                is_ground: true,
+                texture: None,
             });
         }
         scene.commit()?;
@@ -362,6 +567,8 @@ impl World {
             max_depth: 6,
             shading: ShadingNormal::default(),
             terminator: Terminator::default(),
+            warnings,
+            environment: None,
         })
     }
 
@@ -375,9 +582,18 @@ impl World {
             soft_shadow_lights: (0..self.lights.len())
                 .filter(|&i| matches!(self.lights[i], Light::Sphere { .. }))
                 .collect(),
+            glossy: pick(Surface::glossy),
+            textured: self.objects.iter().filter(|o| o.texture.is_some()).map(|o| o.name.clone()).collect(),
             reflective: pick(Surface::reflects),
             refractive: pick(Surface::refracts),
             ambient_occlusion: self.ambient_occlusion,
+            environment: self.environment.as_ref().map(|e| {
+                let kind = match e.source {
+                    EnvironmentSource::Constant(_) => "constant",
+                    EnvironmentSource::Map { .. } => "map",
+                };
+                format!("{kind}, {} samples", e.samples)
+            }),
             max_depth: self.max_depth,
         }
     }
@@ -390,7 +606,10 @@ impl World {
 
     fn radiance(&self, ray: Ray, depth: u32, counts: &mut RayCounts, rng: &mut Rng) -> Vec3 {
         let Some(hit) = self.scene.intersect1(ray) else {
-            return self.background;
+            return match &self.environment {
+                Some(env) => env.radiance(ray.dir),
+                None => self.background,
+            };
         };
         let Some(obj) = self.objects.get(hit.geom_id as usize) else {
             return self.background;
@@ -399,16 +618,38 @@ impl World {
         let s = obj.surface;
         let mut c = Vec3::ZERO;
 
-        // Direct light.
-        if s.kd.max_element() > 0.0 {
+        // Direct light: diffuse, plus the highlight lobe only for glossy materials.
+        let glossy = s.glossy();
+        if s.kd.max_element() > 0.0 || glossy {
             let mut e = self.ambient;
             if let Some(ao) = self.ambient_occlusion {
                 e *= self.ambient_visibility(&sp, ao, counts, rng);
             }
-            for light in &self.lights {
-                e += self.irradiance(light, &sp, counts, rng);
+            if let Some(env) = &self.environment {
+                e += self.environment_light(&sp, env, counts, rng);
             }
-            c += s.kd * e * (1.0 - s.transmission);
+            let mut kd = s.kd * (1.0 - s.transmission);
+            // The texture, only for textured objects.
+            if let Some((tex, uvs)) = &obj.texture {
+                if let Some(uv) = Object::texcoord(uvs, hit.prim_id, hit.u, hit.v) {
+                    counts.texture += 1;
+                    kd *= tex.sample(uv);
+                }
+            }
+            c += kd * e;
+            let v = -ray.dir.normalize_or_zero();
+            for light in &self.lights {
+                if glossy {
+                    let mut spec = 0u64;
+                    c += self.irradiance(light, &sp, counts, rng, |l| {
+                        spec += 1;
+                        kd + s.blinn_phong(sp.n, v, l)
+                    });
+                    counts.specular += spec;
+                } else {
+                    c += self.irradiance(light, &sp, counts, rng, |_| kd);
+                }
+            }
         }
 
         if depth >= self.max_depth {
@@ -422,25 +663,39 @@ impl World {
             let o = sp.offset_origin(r);
             c += s.mirror * self.radiance(Ray::new(o, r), depth + 1, counts, rng);
         }
-        // Refraction, only for transparent materials.
+        // Refraction with the dielectric Fresnel reflection, only for transparent materials.
         if s.refracts() {
-            let (n, eta) = if sp.entering { (sp.n, 1.0 / s.ior) } else { (sp.n, s.ior) };
-            let cos_i = -d.dot(n);
+            let eta = if sp.entering { 1.0 / s.ior } else { s.ior };
+            let n = sp.n;
+            let cos_i = (-d.dot(n)).clamp(0.0, 1.0);
             let k = 1.0 - eta * eta * (1.0 - cos_i * cos_i);
-            let dir = if k < 0.0 {
-                d + 2.0 * cos_i * n // total internal reflection
-            } else {
-                eta * d + (eta * cos_i - k.sqrt()) * n
-            };
-            counts.refraction += 1;
-            let o = sp.offset_origin(dir);
-            c += s.transmission * self.radiance(Ray::new(o, dir), depth + 1, counts, rng);
+            let f = if k < 0.0 { 1.0 } else { fresnel_dielectric(cos_i, k.sqrt(), eta) };
+            if f > 0.0 {
+                let r = d + 2.0 * cos_i * n;
+                counts.reflection += 1;
+                let o = sp.offset_origin(r);
+                c += s.transmission * f * self.radiance(Ray::new(o, r), depth + 1, counts, rng);
+            }
+            if k >= 0.0 {
+                let dir = eta * d + (eta * cos_i - k.sqrt()) * n;
+                counts.refraction += 1;
+                let o = sp.offset_origin(dir);
+                c += s.transmission * (1.0 - f) * self.radiance(Ray::new(o, dir), depth + 1, counts, rng);
+            }
         }
         c
     }
 
-    /// Irradiance from one light at a shading point, with shadow rays only if the light casts them.
-    fn irradiance(&self, light: &Light, sp: &SurfacePoint, counts: &mut RayCounts, rng: &mut Rng) -> Vec3 {
+    /// Light reflected from one light at a shading point: the irradiance from each light direction
+    /// `l` weighted by `brdf(l)`, with shadow rays only if the light casts them.
+    fn irradiance(
+        &self,
+        light: &Light,
+        sp: &SurfacePoint,
+        counts: &mut RayCounts,
+        rng: &mut Rng,
+        mut brdf: impl FnMut(Vec3) -> Vec3,
+    ) -> Vec3 {
         match *light {
             Light::Directional { direction, radiance, shadows } => {
                 let l = direction.normalize_or_zero();
@@ -448,10 +703,11 @@ impl World {
                 if cos <= 0.0 {
                     return Vec3::ZERO;
                 }
-                if shadows && self.blocked(sp, l, f32::INFINITY, counts) {
+                let vis = if shadows { self.visibility(sp, l, f32::INFINITY, counts) } else { 1.0 };
+                if vis == 0.0 {
                     return Vec3::ZERO;
                 }
-                radiance * cos
+                vis * brdf(l) * radiance * cos
             }
             Light::Point { position, intensity, shadows } => {
                 let to = position - sp.p;
@@ -461,10 +717,11 @@ impl World {
                 if cos <= 0.0 || d2 == 0.0 {
                     return Vec3::ZERO;
                 }
-                if shadows && self.blocked(sp, to, 1.0, counts) {
+                let vis = if shadows { self.visibility(sp, to, 1.0, counts) } else { 1.0 };
+                if vis == 0.0 {
                     return Vec3::ZERO;
                 }
-                intensity * cos / d2
+                vis * brdf(l) * intensity * cos / d2
             }
             Light::Sphere { center, radius, intensity, samples } => {
                 let n = samples.max(1);
@@ -478,12 +735,14 @@ impl World {
                     let q = center + radius * Vec3::new(r * phi.cos(), r * phi.sin(), z);
                     let to = q - sp.p;
                     let d2 = to.length_squared();
-                    let cos = sp.light_factor(to / d2.sqrt());
+                    let l = to / d2.sqrt();
+                    let cos = sp.light_factor(l);
                     if cos <= 0.0 || d2 == 0.0 {
                         continue;
                     }
-                    if !self.blocked(sp, to, 1.0, counts) {
-                        sum += intensity * cos / d2;
+                    let vis = self.visibility(sp, to, 1.0, counts);
+                    if vis > 0.0 {
+                        sum += vis * brdf(l) * intensity * cos / d2;
                     }
                 }
                 sum / n as f32
@@ -491,12 +750,43 @@ impl World {
         }
     }
 
-    /// Trace a shadow ray from the offset surface point along `dir` over `(0, tfar)`: from the
-    /// lifted point (see [`Terminator::Lift`]) where the true surface turns away from the light.
-    fn blocked(&self, sp: &SurfacePoint, dir: Vec3, tfar: f32, counts: &mut RayCounts) -> bool {
+    /// The fraction of light arriving along `dir` over `(0, tfar)` from the offset surface point
+    /// (from the lifted point, see [`Terminator::Lift`], where the true surface turns away from the
+    /// light): 0 behind an opaque surface, 1 if nothing is in the way. Only when some material is
+    /// transmissive, the ray continues through each transmissive surface it meets, attenuated by
+    /// its transmission (no refraction: shadows through glass, without caustics), one more shadow
+    /// ray per surface passed, at most [`MAX_SHADOW_SURFACES`]; otherwise one any-hit ray.
+    fn visibility(&self, sp: &SurfacePoint, dir: Vec3, tfar: f32, counts: &mut RayCounts) -> f32 {
         let o = self.shadow_origin(sp, dir, counts);
         counts.shadow += 1;
-        self.scene.occluded1(Ray::new(o, dir).with_range(0.0, tfar))
+        if !self.objects.iter().any(|x| x.surface.refracts()) {
+            return if self.scene.occluded1(Ray::new(o, dir).with_range(0.0, tfar)) { 0.0 } else { 1.0 };
+        }
+        let end = (tfar.is_finite()).then(|| o + tfar * dir);
+        let mut ray = Ray::new(o, dir).with_range(0.0, tfar);
+        let mut t = 1.0f32;
+        for pass in 0..MAX_SHADOW_SURFACES {
+            if pass > 0 {
+                counts.shadow += 1;
+            }
+            let Some(hit) = self.scene.intersect1(ray) else { return t };
+            let Some(obj) = self.objects.get(hit.geom_id as usize) else { return 0.0 };
+            if !obj.surface.refracts() {
+                return 0.0;
+            }
+            t *= obj.surface.transmission;
+            if !(t > 0.0) {
+                return 0.0;
+            }
+            let hp = obj.surface_point(&hit, &ray, self.shading, Terminator::Plain);
+            let org = hp.offset_origin(dir);
+            let rest = end.map_or(f32::INFINITY, |e| (e - org).dot(dir) / dir.length_squared());
+            if !(rest > 0.0) {
+                return t;
+            }
+            ray = Ray::new(org, dir).with_range(0.0, rest);
+        }
+        0.0
     }
 
     /// The origin of a shadow ray along `dir`. With [`Terminator::Lift`], the surface point is
@@ -523,6 +813,36 @@ impl World {
         // The sum rounds: its error joins the point's.
         let lifted = SurfacePoint { p, p_error: sp.p_error + gamma(1) * p.abs(), ..*sp };
         lifted.offset_origin(dir)
+    }
+
+    /// The environment's light at a shading point, as the mean radiance over `env.samples`
+    /// stratified cosine-weighted directions that nothing blocks (a diffuse surface reflects `kd`
+    /// times it: a white surface under a constant environment `L` shows `L`).
+    fn environment_light(
+        &self,
+        sp: &SurfacePoint,
+        env: &Environment,
+        counts: &mut RayCounts,
+        rng: &mut Rng,
+    ) -> Vec3 {
+        let n = env.samples.max(1);
+        let (t, b) = orthonormal_basis(sp.n);
+        let mut sum = Vec3::ZERO;
+        for k in 0..n {
+            let (a, c) = rng.stratified(k, n);
+            let r = a.sqrt();
+            let phi = std::f32::consts::TAU * c;
+            let d = r * phi.cos() * t + r * phi.sin() * b + (1.0 - a).max(0.0).sqrt() * sp.n;
+            if d.dot(sp.ng) <= 0.0 {
+                continue;
+            }
+            counts.environment += 1;
+            let o = sp.offset_origin(d);
+            if !self.scene.occluded1(Ray::new(o, d)) {
+                sum += env.radiance(d);
+            }
+        }
+        sum / n as f32
     }
 
     /// Fraction of the cosine-weighted hemisphere not blocked within `ao.distance`.
@@ -600,6 +920,22 @@ impl SurfacePoint {
         let gp = -g * g * g + g * g + g;
         let t = cos_s / band;
         cos_s * (gp + (1.0 - gp) * t)
+    }
+}
+
+/// The most transmissive surfaces one shadow ray passes through before it counts as blocked.
+pub const MAX_SHADOW_SURFACES: u32 = 16;
+
+/// The dielectric Fresnel reflectance for unpolarised light (pbrt-v4's FrDielectric), from the
+/// cosines of the incident and the transmitted angle and the relative index `eta = n_i / n_t`.
+pub fn fresnel_dielectric(cos_i: f32, cos_t: f32, eta: f32) -> f32 {
+    let r_parl = (cos_i - eta * cos_t) / (cos_i + eta * cos_t);
+    let r_perp = (eta * cos_i - cos_t) / (eta * cos_i + cos_t);
+    let f = 0.5 * (r_parl * r_parl + r_perp * r_perp);
+    if f.is_finite() {
+        f.clamp(0.0, 1.0)
+    } else {
+        1.0
     }
 }
 

@@ -1,0 +1,159 @@
+//! The default camera on real models: the silhouette fills about 80% of the frame, the side
+//! facing the camera is the lit one, and the up axis and front are found (corpus models; each
+//! skips with a message when ../shared/corpus, or the folder $PHONGRT_CORPUS names, is absent).
+
+use std::path::Path;
+
+use glam::Vec3;
+use phongrt::embree::{Device, Ray};
+use phongrt::scene::{load_obj, LoadOptions};
+use phongrt_cli::render::camera::default_view;
+use phongrt_cli::render::{Camera, ObjectMode, ObjectSettings, World};
+
+/// The corpus folder: $PHONGRT_CORPUS, else ../shared/corpus beside the project.
+fn corpus() -> std::path::PathBuf {
+    std::env::var_os("PHONGRT_CORPUS")
+        .map(Into::into)
+        .unwrap_or_else(|| Path::new(env!("CARGO_MANIFEST_DIR")).join("../shared/corpus"))
+}
+const W: u32 = 160;
+const H: u32 = 120;
+/// The fill the framing aims at is 0.8 of the tighter frame extent, measured on the vertices;
+/// the silhouette (Phong patches bulge a little past them, and pixels quantise) may differ by 0.1.
+const FILL: std::ops::RangeInclusive<f32> = 0.7..=0.9;
+
+struct Measured {
+    fill: f32,
+    lit: f32,
+    camera: Camera,
+    up: Vec3,
+    front: Vec3,
+}
+
+/// Render the hit mask and key-light facing of `rel` through its default camera.
+fn measure(rel: &str) -> Option<Measured> {
+    let path = corpus().join(rel);
+    if !path.exists() {
+        eprintln!("skipped: {} not found (the corpus is not in this checkout)", path.display());
+        return None;
+    }
+    let input = load_obj(&path, &LoadOptions::default()).unwrap();
+    let (camera, det) = default_view(&input, None, 0.0, None, W as f32 / H as f32);
+    let device = Device::new().unwrap();
+    let world = World::from_scene(&device, &input, |_, _| {
+        ObjectSettings::new(ObjectMode::Phong { alpha: phongrt::phong::DEFAULT_ALPHA })
+    })
+    .unwrap();
+    let frame = camera.frame(W as f32 / H as f32).unwrap();
+    let l = camera.key_light_direction();
+    let (mut x0, mut x1, mut y0, mut y1) = (W, 0, H, 0);
+    let (mut hits, mut lit) = (0u32, 0u32);
+    for y in 0..H {
+        for x in 0..W {
+            let ray = Ray::new(frame.eye, frame.direction(x as f32 + 0.5, y as f32 + 0.5, W, H));
+            let Some(hit) = world.scene.intersect1(ray) else { continue };
+            let obj = &world.objects[hit.geom_id as usize];
+            let sp = obj.surface_point(&hit, &ray, world.shading, world.terminator);
+            (x0, x1, y0, y1) = (x0.min(x), x1.max(x + 1), y0.min(y), y1.max(y + 1));
+            hits += 1;
+            if sp.n.dot(l) > 0.0 {
+                lit += 1;
+            }
+        }
+    }
+    assert!(hits > 0, "{rel}: the default view misses the model");
+    let fill = ((x1 - x0) as f32 / W as f32).max((y1 - y0) as f32 / H as f32);
+    // The silhouette is centred: the margins on each side differ by at most 15% of the frame.
+    let (mx, my) = ((x0 as f32 - (W - x1) as f32) / W as f32, (y0 as f32 - (H - y1) as f32) / H as f32);
+    assert!(mx.abs() <= 0.15 && my.abs() <= 0.15, "{rel}: silhouette off centre by {mx}, {my}");
+    let m = Measured { fill, lit: lit as f32 / hits as f32, camera, up: det.up, front: det.front };
+    eprintln!("{rel}: fill {:.2}, lit {:.2}, {det}", m.fill, m.lit);
+    Some(m)
+}
+
+fn check(rel: &str) -> Option<Measured> {
+    let m = measure(rel)?;
+    assert!(FILL.contains(&m.fill), "{rel}: the silhouette spans {:.2} of the frame", m.fill);
+    // Most of what the camera sees faces the key light (the light is at the camera's upper left).
+    assert!(m.lit >= 0.6, "{rel}: only {:.2} of the visible surface faces the key light", m.lit);
+    Some(m)
+}
+
+#[test]
+fn wuson_is_seen_from_its_head_end_and_fills_the_frame() {
+    if let Some(m) = check("wuson/WusonOBJ.obj") {
+        assert_eq!((m.up, m.front), (Vec3::Y, -Vec3::Z));
+        assert!((m.camera.eye - m.camera.look_at).z < 0.0, "the camera is behind the bull");
+    }
+}
+
+#[test]
+fn spot_is_seen_from_its_head_end_and_fills_the_frame() {
+    if let Some(m) = check("spot/spot.obj") {
+        assert_eq!((m.up, m.front), (Vec3::Y, -Vec3::Z));
+    }
+}
+
+#[test]
+fn mug_is_z_up_and_fills_the_frame() {
+    if let Some(m) = check("mug/mug.obj") {
+        assert_eq!(m.up, Vec3::Z);
+        assert_eq!(m.camera.up, Vec3::Z);
+    }
+}
+
+#[test]
+fn regr01_is_z_up_and_fills_the_frame() {
+    if let Some(m) = check("regr01/regr01.obj") {
+        assert_eq!(m.up, Vec3::Z);
+    }
+}
+
+#[test]
+fn concave_polygon_is_seen_face_on_and_lit() {
+    if let Some(m) = check("concave_polygon/concave_polygon.obj") {
+        // Face-on within the three-quarter angles: the view is far from edge-on.
+        let back = (m.camera.eye - m.camera.look_at).normalize();
+        assert!(back.dot(m.front).abs() > 0.7, "edge-on view: {back} against the face {}", m.front);
+    }
+}
+
+#[test]
+fn duck_suzanne_teapot_and_head_fill_the_frame() {
+    for rel in ["duck/duck.obj", "suzanne/suzanne.obj", "teapot/teapot.obj", "african_head/african_head.obj"]
+    {
+        if let Some(m) = check(rel) {
+            assert_eq!(m.up, Vec3::Y, "{rel}");
+        }
+    }
+}
+
+#[test]
+fn orbit_turns_the_view_about_the_up_axis() {
+    let path = corpus().join("mug/mug.obj");
+    if !path.exists() {
+        eprintln!("skipped: {} not found", path.display());
+        return;
+    }
+    let input = load_obj(&path, &LoadOptions::default()).unwrap();
+    let (a, _) = default_view(&input, None, 0.0, None, 1.0);
+    let (b, _) = default_view(&input, None, 90.0, None, 1.0);
+    let (da, db) = (a.eye - a.look_at, b.eye - b.look_at);
+    // Same height above the model, horizontal directions a quarter turn apart.
+    assert!((da.z / da.length() - db.z / db.length()).abs() < 1e-3);
+    let (ha, hb) = (Vec3::new(da.x, da.y, 0.0).normalize(), Vec3::new(db.x, db.y, 0.0).normalize());
+    assert!(ha.dot(hb).abs() < 1e-3, "{ha} and {hb} are not a quarter turn apart");
+    assert!(ha.cross(hb).z > 0.0, "the orbit turns clockwise seen from above");
+}
+
+#[test]
+fn a_given_up_axis_is_the_cameras_and_the_key_light_is_at_its_upper_left() {
+    let input = phongrt::scene::Scene::from_mesh(phongrt::scene::uv_sphere(24, 12, 1.0));
+    let (c, _) = default_view(&input, Some(Vec3::Z), 0.0, None, 4.0 / 3.0);
+    assert_eq!(c.up, Vec3::Z);
+    let back = (c.eye - c.look_at).normalize();
+    assert!(back.z > 0.3, "a z-up view looks from above the horizon: {back}");
+    let l = c.key_light_direction();
+    let right = (-back).cross(c.up).normalize();
+    assert!(l.dot(back) > 0.0 && l.dot(right) < 0.0 && l.dot(c.up) > 0.0, "key light {l}");
+}
