@@ -4,11 +4,13 @@
 set -euo pipefail
 cd "$(dirname "$0")/.."
 scripts/setup-embree.sh >/dev/null
-if ! command -v cc >/dev/null || ! command -v valgrind >/dev/null; then
+if ! command -v cc >/dev/null || ! command -v valgrind >/dev/null || ! command -v cmake >/dev/null ||
+   ! command -v pkg-config >/dev/null; then
   if command -v apt-get >/dev/null; then
-    echo "test.sh: installing a C compiler and valgrind (for the C API test)" >&2
+    echo "test.sh: installing a C compiler, valgrind, cmake and pkg-config (for the C API tests)" >&2
     if [ "$(id -u)" = 0 ]; then sudo=""; else sudo=sudo; fi
-    $sudo apt-get update -qq >&2 && DEBIAN_FRONTEND=noninteractive $sudo apt-get install -y -qq gcc valgrind >&2
+    $sudo apt-get update -qq >&2 &&
+      DEBIAN_FRONTEND=noninteractive $sudo apt-get install -y -qq gcc valgrind cmake pkg-config >&2
   fi
 fi
 cargo build --release --workspace --quiet

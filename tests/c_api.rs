@@ -67,3 +67,25 @@ fn c_user_floor_matches_native_triangles() {
     assert!(hits > 0 && hits < 24 * 24, "{line}");
     assert!(!line.contains("0.00 callback calls"), "{line}");
 }
+
+/// tests/c/pending_error.c: phongrt_attach_mesh on a device with an error left pending by the
+/// caller succeeds (the mesh is attached and traced, under valgrind when installed, so a mesh
+/// freed under its geometry would show), and leaves that error for the caller.
+#[test]
+fn c_attach_with_callers_pending_device_error_succeeds() {
+    let (_dir, exe) = common::compile_c(&common::root().join("tests/c/pending_error.c"), "pending_error");
+    let run = Command::new(&exe).output().unwrap();
+    let stdout = String::from_utf8_lossy(&run.stdout);
+    assert!(run.status.success(), "C program failed:\n{stdout}\n{}", String::from_utf8_lossy(&run.stderr));
+    assert!(stdout.starts_with("ok "), "{stdout}");
+    if Command::new("valgrind").arg("--version").output().is_err() {
+        println!("skipped valgrind: not installed");
+        return;
+    }
+    let vg = Command::new("valgrind")
+        .args(["--leak-check=full", "--errors-for-leak-kinds=definite", "--error-exitcode=9", "--quiet"])
+        .arg(&exe)
+        .output()
+        .unwrap();
+    assert!(vg.status.success(), "valgrind reports errors:\n{}", String::from_utf8_lossy(&vg.stderr));
+}

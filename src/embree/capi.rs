@@ -100,15 +100,21 @@ pub unsafe extern "C" fn phongrt_attach_mesh(
             }
             let id = sys::rtcAttachGeometry(scene, geom);
             sys::rtcReleaseGeometry(geom);
-            let err = sys::rtcGetDeviceError(device);
-            sys::rtcReleaseDevice(device);
-            if err != sys::RTCError::RTC_ERROR_NONE {
+            // rtcAttachGeometry returns RTC_INVALID_GEOMETRY_ID exactly when it fails (rtcore's
+            // API wrappers return -1 on error). The device's error code is read only then: an
+            // error left pending by the caller's own earlier calls is theirs, and must not turn a
+            // successful attach (the geometry is in the scene, pointing into `boxed`) into a
+            // failure that frees the mesh under it.
+            if id == sys::RTC_INVALID_GEOMETRY_ID {
+                let err = sys::rtcGetDeviceError(device);
+                sys::rtcReleaseDevice(device);
                 let code = super::device::ErrorCode::from_raw(err);
                 return Err(format!(
                     "phongrt_attach_mesh: Embree: {}",
                     code.unwrap_or(super::ErrorCode::Unknown)
                 ));
             }
+            sys::rtcReleaseDevice(device);
             if !mesh_out.is_null() {
                 *mesh_out = Box::into_raw(boxed);
             } else {
