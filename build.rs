@@ -90,6 +90,51 @@ fn find_embree() -> Result<Embree, String> {
         .to_string())
 }
 
+/// Whether the dynamic loader finds libraries in `dir` without help (no rpath, no
+/// LD_LIBRARY_PATH): the default directories of glibc's loader and of Debian's multiarch layout.
+fn is_system_lib_dir(dir: &Path) -> bool {
+    let dir = dir.canonicalize().unwrap_or_else(|_| dir.to_path_buf());
+    [
+        "/lib",
+        "/lib64",
+        "/usr/lib",
+        "/usr/lib64",
+        "/usr/lib/x86_64-linux-gnu",
+        "/lib/x86_64-linux-gnu",
+        "/usr/lib/aarch64-linux-gnu",
+        "/lib/aarch64-linux-gnu",
+    ]
+    .iter()
+    .any(|d| dir == Path::new(d))
+}
+
+/// Link (or copy) Embree's runtime files from `lib_dir` into `OUT_DIR/lib`: `libembree4*` and the
+/// TBB it was built with (`libtbb*`), shared objects only. Returns that directory.
+fn runtime_into_out_dir(lib_dir: &Path) -> std::io::Result<PathBuf> {
+    let out = PathBuf::from(env::var("OUT_DIR").expect("cargo sets OUT_DIR")).join("lib");
+    std::fs::create_dir_all(&out)?;
+    for entry in std::fs::read_dir(lib_dir)? {
+        let entry = entry?;
+        let name = entry.file_name();
+        let n = name.to_string_lossy();
+        let shared = n.contains(".so") || n.ends_with(".dylib");
+        if !(shared && (n.starts_with("libembree4") || n.starts_with("libtbb"))) {
+            continue;
+        }
+        let dest = out.join(&name);
+        let _ = std::fs::remove_file(&dest);
+        let src = entry.path().canonicalize()?;
+        #[cfg(unix)]
+        let linked = std::os::unix::fs::symlink(&src, &dest);
+        #[cfg(not(unix))]
+        let linked: std::io::Result<()> = Err(std::io::ErrorKind::Unsupported.into());
+        if linked.is_err() {
+            std::fs::copy(&src, &dest)?;
+        }
+    }
+    Ok(out)
+}
+
 fn main() {
     for var in ["EMBREE_DIR", "PKG_CONFIG_PATH", "PHONGRT_CACHE", "XDG_CACHE_HOME", "HOME", "LIBCLANG_PATH"] {
         println!("cargo:rerun-if-env-changed={var}");
@@ -113,6 +158,21 @@ fn main() {
 
     // Link, with an rpath so target/*/phongrt and the test binaries run without LD_LIBRARY_PATH.
     if let Some(lib_dir) = &embree.lib_dir {
+        // For dependents: the rpath above applies to this package's own targets only, but Cargo
+        // puts every link-search path that lies inside OUT_DIR on the dynamic-library path of
+        // `cargo run` and `cargo test` (the Cargo book, build scripts, `rustc-link-search`), so
+        // an Embree the system loader cannot find is linked into OUT_DIR/lib (symlinks, or copies
+        // where links fail) and searched there first.
+        if !is_system_lib_dir(lib_dir) {
+            match runtime_into_out_dir(lib_dir) {
+                Ok(dir) => println!("cargo:rustc-link-search=native={}", dir.display()),
+                Err(e) => println!(
+                    "cargo:warning=phongrt: cannot link the Embree runtime into OUT_DIR ({e}); dependents \
+                     need LD_LIBRARY_PATH={} for `cargo run`",
+                    lib_dir.display()
+                ),
+            }
+        }
         println!("cargo:rustc-link-search=native={}", lib_dir.display());
         if env::var("CARGO_CFG_TARGET_OS").as_deref() != Ok("windows") {
             println!("cargo:rustc-link-arg=-Wl,-rpath,{}", lib_dir.display());

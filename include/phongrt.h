@@ -77,11 +77,29 @@ typedef struct phongrt_mesh phongrt_mesh;
  * geometry on the scene's device, attach it to `scene` and return its geomID (the scene must then be
  * committed as usual). `*mesh_out` receives the mesh, for the shading helpers and for
  * phongrt_mesh_release. Returns RTC_INVALID_GEOMETRY_ID on error; phongrt_last_error() says why.
+ *
+ * The mesh is watertight: positions within 1e-6 of the mesh's bounding-box diagonal are welded
+ * (onto the first of them), so triangles sharing a position share an edge whatever the indexing (a
+ * triangle soup too), and every edge that is not smooth (a crease, where the normals at an end
+ * differ: split normals; a border; an edge of more than two triangles) is kept straight, so no ray
+ * slips between two patches. Triangles keep their order (primID) and corner order (u, v).
+ * For plain Phong tessellation, use phongrt_attach_mesh_ex with PHONGRT_MESH_PLAIN.
  */
 unsigned int phongrt_attach_mesh(RTCScene scene,
                                  const float* positions, const float* normals, size_t vertex_count,
                                  const unsigned int* indices, size_t triangle_count,
                                  float alpha, phongrt_mesh** mesh_out);
+
+/* phongrt_attach_mesh_ex flag: plain Phong tessellation of the arrays as given (no welding, every
+ * edge bent by the normals at its ends, as the paper defines it: split normals then show cracks). */
+#define PHONGRT_MESH_PLAIN 1u
+
+/* As phongrt_attach_mesh, with `flags`: 0 (the same as phongrt_attach_mesh) or PHONGRT_MESH_PLAIN.
+ * Unknown flags are an error. */
+unsigned int phongrt_attach_mesh_ex(RTCScene scene,
+                                    const float* positions, const float* normals, size_t vertex_count,
+                                    const unsigned int* indices, size_t triangle_count,
+                                    float alpha, unsigned int flags, phongrt_mesh** mesh_out);
 
 /* Free a mesh. NULL is ignored. Afterwards no scene holding its geometry, directly or through an
  * instance, may be committed or traced (see "Threads" above): release those scenes first, or

@@ -212,3 +212,35 @@ fn phong_mesh_attaches_to_a_raw_scene_made_by_the_callers_own_embree_code() {
         drop(handle);
     }
 }
+
+#[test]
+fn attach_phong_shares_the_mesh_with_the_caller_without_a_copy() {
+    use std::sync::Arc;
+    let device = Device::new().unwrap();
+    let m = uv_sphere(12, 6, 1.0);
+    let mesh = Arc::new(PhongMesh::new(m.positions, m.normals, m.indices, 1.0).unwrap());
+    let mut s = Scene::new(&device).unwrap();
+    s.attach_phong(mesh.clone(), UserGeometryOptions::default()).unwrap();
+    s.commit().unwrap();
+    // The scene holds the caller's mesh itself: one more reference, no second copy.
+    assert_eq!(Arc::strong_count(&mesh), 2);
+    let h = s.intersect1(Ray::new(Vec3::new(0.0, 3.0, 0.0), -Vec3::Y)).unwrap();
+    let n = mesh.shading_normal(h.prim_id, h.u, h.v, -Vec3::Y).unwrap();
+    assert!(n.dot(Vec3::Y) > 0.999, "{n}");
+    drop(s);
+    assert_eq!(Arc::strong_count(&mesh), 1, "the scene released its reference");
+}
+
+#[test]
+fn the_renderers_phong_objects_share_their_mesh_with_the_scene() {
+    use phongrt_cli::render::{ObjectMode, ObjectSettings, World};
+    let device = Device::new().unwrap();
+    let scene = phongrt::scene::Scene::from_mesh(uv_sphere(12, 6, 1.0));
+    let world = World::from_scene(&device, &scene, |_, _| ObjectSettings {
+        mode: ObjectMode::Phong { alpha: 1.0 },
+        straight_creases: true,
+    })
+    .unwrap();
+    let pm = world.objects[0].phong.as_ref().expect("a Phong object keeps its mesh");
+    assert_eq!(std::sync::Arc::strong_count(pm), 2, "object and Embree geometry share one mesh");
+}

@@ -36,7 +36,10 @@ unsafe fn read_vec3s(p: *const f32, n: usize) -> Vec<Vec3> {
     s.chunks_exact(3).map(|c| Vec3::new(c[0], c[1], c[2])).collect()
 }
 
-/// See `phongrt_attach_mesh` in include/phongrt.h.
+/// `phongrt_attach_mesh_ex`'s flag for plain Phong tessellation (no welding, no straight edges).
+pub const PHONGRT_MESH_PLAIN: u32 = 1;
+
+/// See `phongrt_attach_mesh` in include/phongrt.h (watertight: welded, creases and borders straight).
 ///
 /// # Safety
 /// `scene` must be a live RTCScene; `positions`/`normals` must point to `vertex_count` float
@@ -52,20 +55,100 @@ pub unsafe extern "C" fn phongrt_attach_mesh(
     alpha: f32,
     mesh_out: *mut *mut phongrt_mesh,
 ) -> u32 {
+    // SAFETY: the same contract as phongrt_attach_mesh_ex's.
+    unsafe {
+        attach_mesh(
+            "phongrt_attach_mesh",
+            scene,
+            positions,
+            normals,
+            vertex_count,
+            indices,
+            triangle_count,
+            alpha,
+            0,
+            mesh_out,
+        )
+    }
+}
+
+/// See `phongrt_attach_mesh_ex` in include/phongrt.h: as `phongrt_attach_mesh`, with `flags`
+/// (`PHONGRT_MESH_PLAIN`, or 0).
+///
+/// # Safety
+/// As `phongrt_attach_mesh`.
+#[no_mangle]
+pub unsafe extern "C" fn phongrt_attach_mesh_ex(
+    scene: sys::RTCScene,
+    positions: *const f32,
+    normals: *const f32,
+    vertex_count: usize,
+    indices: *const u32,
+    triangle_count: usize,
+    alpha: f32,
+    flags: u32,
+    mesh_out: *mut *mut phongrt_mesh,
+) -> u32 {
+    // SAFETY: this function's contract.
+    unsafe {
+        attach_mesh(
+            "phongrt_attach_mesh_ex",
+            scene,
+            positions,
+            normals,
+            vertex_count,
+            indices,
+            triangle_count,
+            alpha,
+            flags,
+            mesh_out,
+        )
+    }
+}
+
+/// # Safety
+/// As `phongrt_attach_mesh`.
+#[allow(clippy::too_many_arguments)]
+unsafe fn attach_mesh(
+    func: &str,
+    scene: sys::RTCScene,
+    positions: *const f32,
+    normals: *const f32,
+    vertex_count: usize,
+    indices: *const u32,
+    triangle_count: usize,
+    alpha: f32,
+    flags: u32,
+    mesh_out: *mut *mut phongrt_mesh,
+) -> u32 {
     let r = catch_unwind(AssertUnwindSafe(|| -> Result<u32, String> {
         if !mesh_out.is_null() {
             // SAFETY: mesh_out is writable per the contract.
             unsafe { *mesh_out = std::ptr::null_mut() };
         }
-        // An array may be NULL when its count is 0 (phongrt.h).
-        if scene.is_null()
-            || (vertex_count > 0 && (positions.is_null() || normals.is_null()))
-            || (triangle_count > 0 && indices.is_null())
-        {
-            return Err("phongrt_attach_mesh: NULL scene, or NULL array with a non-zero count".into());
+        if flags & !PHONGRT_MESH_PLAIN != 0 {
+            return Err(format!(
+                "{func}: unknown flags {flags:#x} (PHONGRT_MESH_PLAIN = 1 is the only flag)"
+            ));
         }
-        if vertex_count > (u32::MAX as usize) || triangle_count > (u32::MAX as usize) {
-            return Err("phongrt_attach_mesh: too many vertices or triangles".into());
+        // An array may be NULL when its count is 0 (phongrt.h).
+        if scene.is_null() {
+            return Err(format!("{func}: NULL scene"));
+        }
+        for (ptr_null, what, count) in [
+            (positions.is_null(), "positions", vertex_count),
+            (normals.is_null(), "normals", vertex_count),
+            (indices.is_null(), "indices", triangle_count),
+        ] {
+            if ptr_null && count > 0 {
+                return Err(format!("{func}: {what} is NULL with a count of {count}"));
+            }
+        }
+        if vertex_count > (u32::MAX as usize) {
+            return Err(format!("{func}: {vertex_count} vertices: more than a uint index can reach"));
+        }
+        if triangle_count > (u32::MAX as usize) {
+            return Err(format!("{func}: {triangle_count} triangles: more than a primID can count"));
         }
         // SAFETY: the arrays hold the stated counts (phongrt.h contract) and are non-NULL when
         // the count is non-zero (checked above); we copy them.
@@ -80,11 +163,11 @@ pub unsafe extern "C" fn phongrt_attach_mesh(
             };
             (p, n, idx)
         };
-        // The header forbids zero normals: such a patch would never be hit.
-        if let Some(i) = n.iter().position(|v| v.is_finite() && v.length_squared() == 0.0) {
-            return Err(format!("phongrt_attach_mesh: vertex {i} has a zero normal"));
-        }
-        let mesh = PhongMesh::new(p, n, idx, alpha).map_err(|e| format!("phongrt_attach_mesh: {e}"))?;
+        // Zero and non-finite normals, bad indices and alpha are refused by the builder, naming
+        // the vertex, triangle or value.
+        let builder = PhongMesh::builder(&p, &n, &idx).alpha(alpha);
+        let builder = if flags & PHONGRT_MESH_PLAIN != 0 { builder.plain() } else { builder };
+        let mesh = builder.build().map_err(|e| format!("{func}: {e}"))?;
         let boxed = Box::new(phongrt_mesh { data: UserData::new(mesh) });
         // SAFETY: `scene` is live (contract), so its device is; the mesh box is leaked to the
         // caller, who frees it with phongrt_mesh_release only after releasing the scene
@@ -96,7 +179,7 @@ pub unsafe extern "C" fn phongrt_attach_mesh(
             // rtcGetSceneDevice retained the device: release that reference.
             if geom.is_null() {
                 sys::rtcReleaseDevice(device);
-                return Err("phongrt_attach_mesh: Embree could not create a user geometry".into());
+                return Err(format!("{func}: Embree could not create a user geometry"));
             }
             let id = sys::rtcAttachGeometry(scene, geom);
             sys::rtcReleaseGeometry(geom);
@@ -109,10 +192,7 @@ pub unsafe extern "C" fn phongrt_attach_mesh(
                 let err = sys::rtcGetDeviceError(device);
                 sys::rtcReleaseDevice(device);
                 let code = super::device::ErrorCode::from_raw(err);
-                return Err(format!(
-                    "phongrt_attach_mesh: Embree: {}",
-                    code.unwrap_or(super::ErrorCode::Unknown)
-                ));
+                return Err(format!("{func}: Embree: {}", code.unwrap_or(super::ErrorCode::Unknown)));
             }
             sys::rtcReleaseDevice(device);
             if !mesh_out.is_null() {
@@ -134,7 +214,7 @@ pub unsafe extern "C" fn phongrt_attach_mesh(
             sys::RTC_INVALID_GEOMETRY_ID
         }
         Err(_) => {
-            set_error("phongrt_attach_mesh: internal error (panic caught)");
+            set_error(&format!("{func}: internal error (panic caught)"));
             sys::RTC_INVALID_GEOMETRY_ID
         }
     }

@@ -2,6 +2,8 @@
 //! intersection by [`crate::phong`], everything else (BVH, traversal, instancing, filters,
 //! masks, packets) by Embree.
 
+use std::sync::Arc;
+
 use glam::{DVec3, Vec3};
 
 use super::device::EmbreeError;
@@ -10,7 +12,7 @@ use super::user_geometry::{new_user_geometry, PrimHit, UserData, UserGeometryOpt
 use crate::phong::{intersect, Method, Patch, ShadingNormal, V3};
 use crate::sys;
 
-/// Why a Phong mesh was refused.
+/// Why a Phong mesh was refused. Each displays as one line naming the vertex, triangle or value.
 #[derive(Debug, Clone, thiserror::Error)]
 pub enum PhongMeshError {
     #[error("{0} normals for {1} positions (need one per vertex)")]
@@ -21,14 +23,21 @@ pub enum PhongMeshError {
     Alpha(f32),
     #[error("vertex {0} has a non-finite position or normal")]
     NonFinite(usize),
+    #[error("vertex {0} has a zero normal (its triangles could never be hit)")]
+    ZeroNormal(usize),
     #[error("{0} per-triangle straight-edge flags for {1} triangles")]
     EdgeFlagCount(usize, usize),
+    #[error("weld tolerance {0} is not a finite number >= 0")]
+    WeldTolerance(f32),
+    #[error("{0} triangles: more than a u32 primID can count")]
+    TooManyTriangles(usize),
 }
 
 /// A Phong mesh: patches precomputed per triangle, owned so it outlives the geometry.
 ///
 /// The fields are private so that the patches and their precomputed bounds cannot drift
-/// apart: build a new mesh to change the geometry.
+/// apart: build a new mesh to change the geometry. Share it with a scene as an
+/// `Arc<PhongMesh>` ([`Scene::attach_phong`]) to keep it for shading queries without a copy.
 #[derive(Clone, Debug)]
 pub struct PhongMesh {
     patches: Vec<Patch<f32>>,
@@ -36,43 +45,108 @@ pub struct PhongMesh {
     bounds: Vec<(Vec3, Vec3)>,
     /// Patches that are never hit (zero area or zero normal), counted for reporting.
     degenerate: usize,
+    /// Triangle edges kept straight (each shared edge counted from both sides).
+    straight: usize,
     method: Method,
 }
 
-impl PhongMesh {
-    /// Build from vertex positions and normals (one per vertex), triangles and alpha.
-    pub fn new(
-        positions: Vec<Vec3>,
-        normals: Vec<Vec3>,
-        indices: Vec<[u32; 3]>,
-        alpha: f32,
-    ) -> Result<Self, PhongMeshError> {
-        Self::with_straight_edges(&positions, &normals, &indices, alpha, None)
+/// How a [`PhongMeshBuilder`] treats the edges between triangles.
+#[derive(Clone, Copy, Debug)]
+enum EdgeRule<'a> {
+    /// Weld by position, keep crease and border edges straight (the default).
+    Watertight { weld_tolerance: f32 },
+    /// Plain Phong tessellation of the arrays as given: every edge bent by its own normals.
+    Plain,
+    /// The arrays as given, with the caller's straight-edge flags.
+    Given(&'a [[bool; 3]]),
+}
+
+/// Options for a [`PhongMesh`], resolved by [`PhongMeshBuilder::build`]. Made by
+/// [`PhongMesh::builder`].
+///
+/// ```
+/// use phongrt::embree::PhongMesh;
+/// use phongrt::glam::Vec3;
+/// let p = [Vec3::ZERO, Vec3::X, Vec3::Y];
+/// let n = [Vec3::Z, Vec3::new(0.3, 0.0, 1.0), Vec3::new(0.0, 0.3, 1.0)];
+/// // Plain Phong tessellation: the border edges bend too.
+/// let mesh = PhongMesh::builder(&p, &n, &[[0, 1, 2]]).alpha(0.75).plain().build().unwrap();
+/// assert_eq!(mesh.straight_edge_count(), 0);
+/// ```
+#[derive(Clone, Debug)]
+pub struct PhongMeshBuilder<'a> {
+    positions: &'a [Vec3],
+    normals: &'a [Vec3],
+    indices: &'a [[u32; 3]],
+    alpha: f32,
+    edges: EdgeRule<'a>,
+    method: Method,
+}
+
+impl<'a> PhongMeshBuilder<'a> {
+    /// The shape factor in [0, 1] (0 = flat triangles; 1, the default, = full Phong tessellation).
+    pub fn alpha(mut self, alpha: f32) -> Self {
+        self.alpha = alpha;
+        self
     }
 
-    /// As [`PhongMesh::new`], keeping edge `k` of triangle `t` straight where `straight[t][k]`
-    /// (for creases: both patches beside the edge then share the straight edge, no crack).
-    pub fn with_straight_edges(
-        positions: &[Vec3],
-        normals: &[Vec3],
-        indices: &[[u32; 3]],
-        alpha: f32,
-        straight: Option<&[[bool; 3]]>,
-    ) -> Result<Self, PhongMeshError> {
+    /// Plain Phong tessellation: no welding, every edge bent by the normals at its ends, as the
+    /// paper defines it. Meshes with split normals or borders then show cracks.
+    pub fn plain(mut self) -> Self {
+        self.edges = EdgeRule::Plain;
+        self
+    }
+
+    /// Keep edge `k` of triangle `t` straight where `straight[t][k]`, and weld nothing (for
+    /// arrays already prepared, e.g. by [`crate::mesh::prepare`] or the OBJ loader).
+    pub fn straight_edges(mut self, straight: &'a [[bool; 3]]) -> Self {
+        self.edges = EdgeRule::Given(straight);
+        self
+    }
+
+    /// Weld positions closer than `relative` times the diagonal of the mesh's bounds (default
+    /// [`crate::mesh::WELD_TOLERANCE`]; 0 welds only equal positions). Undoes [`Self::plain`]
+    /// and [`Self::straight_edges`].
+    pub fn weld_tolerance(mut self, relative: f32) -> Self {
+        self.edges = EdgeRule::Watertight { weld_tolerance: relative };
+        self
+    }
+
+    /// The intersection method of the ray callbacks ([`Method::Certified`] by default).
+    pub fn method(mut self, method: Method) -> Self {
+        self.method = method;
+        self
+    }
+
+    /// Check the arrays and build the patches.
+    pub fn build(self) -> Result<PhongMesh, PhongMeshError> {
+        let (positions, normals, indices) = (self.positions, self.normals, self.indices);
+        // Check everything first, naming the first offender.
         if normals.len() != positions.len() {
             return Err(PhongMeshError::NormalCount(normals.len(), positions.len()));
         }
-        if !(0.0..=1.0).contains(&alpha) {
-            return Err(PhongMeshError::Alpha(alpha));
+        if !(0.0..=1.0).contains(&self.alpha) {
+            return Err(PhongMeshError::Alpha(self.alpha));
         }
-        if let Some(s) = straight {
-            if s.len() != indices.len() {
+        if indices.len() > u32::MAX as usize {
+            return Err(PhongMeshError::TooManyTriangles(indices.len()));
+        }
+        match self.edges {
+            EdgeRule::Given(s) if s.len() != indices.len() => {
                 return Err(PhongMeshError::EdgeFlagCount(s.len(), indices.len()));
             }
+            EdgeRule::Watertight { weld_tolerance: w } if !(w >= 0.0 && w.is_finite()) => {
+                return Err(PhongMeshError::WeldTolerance(w));
+            }
+            _ => {}
         }
         if let Some(i) = (0..positions.len()).find(|&i| !positions[i].is_finite() || !normals[i].is_finite())
         {
             return Err(PhongMeshError::NonFinite(i));
+        }
+        // The patches normalize in f64, where any non-zero f32 vector has a non-zero length.
+        if let Some(i) = normals.iter().position(|n| n.as_dvec3().length_squared() == 0.0) {
+            return Err(PhongMeshError::ZeroNormal(i));
         }
         if let Some((t, &index)) = indices
             .iter()
@@ -81,22 +155,108 @@ impl PhongMesh {
         {
             return Err(PhongMeshError::Index { tri: t, index, count: positions.len() });
         }
-        // Patches are independent: build them on every core (order kept, so deterministic).
-        use rayon::prelude::*;
-        let (patches, bounds): (Vec<Patch<f32>>, Vec<(Vec3, Vec3)>) = indices
-            .par_iter()
-            .enumerate()
-            .map(|(t, tri)| {
-                let p = tri.map(|i| positions[i as usize].as_dvec3());
-                let n = tri.map(|i| normals[i as usize].as_dvec3());
-                let s = straight.map_or([false; 3], |s| s[t]);
-                let patch: Patch<f32> = Patch::with_straight_edges(p, n, alpha as f64, s);
-                let (lo, hi) = patch.bounds();
-                (patch, (Vec3::from(lo), Vec3::from(hi)))
-            })
-            .unzip();
-        let degenerate = patches.iter().filter(|p| p.degenerate()).count();
-        Ok(PhongMesh { patches, bounds, degenerate, method: Method::Certified })
+        // Compute the arrays the patches are built from.
+        let mesh = match self.edges {
+            EdgeRule::Watertight { weld_tolerance } => {
+                let m = crate::mesh::prepare(positions, normals, indices, weld_tolerance);
+                let straight = m.straight_edges();
+                build_patches(&m.positions, &m.normals, &m.indices, self.alpha, Some(&straight))
+            }
+            EdgeRule::Plain => build_patches(positions, normals, indices, self.alpha, None),
+            EdgeRule::Given(s) => build_patches(positions, normals, indices, self.alpha, Some(s)),
+        };
+        Ok(PhongMesh { method: self.method, ..mesh })
+    }
+}
+
+/// The patches of checked arrays.
+fn build_patches(
+    positions: &[Vec3],
+    normals: &[Vec3],
+    indices: &[[u32; 3]],
+    alpha: f32,
+    straight: Option<&[[bool; 3]]>,
+) -> PhongMesh {
+    // Patches are independent: build them on every core (order kept, so deterministic).
+    use rayon::prelude::*;
+    let (patches, bounds): (Vec<Patch<f32>>, Vec<(Vec3, Vec3)>) = indices
+        .par_iter()
+        .enumerate()
+        .map(|(t, tri)| {
+            let p = tri.map(|i| positions[i as usize].as_dvec3());
+            let n = tri.map(|i| normals[i as usize].as_dvec3());
+            let s = straight.map_or([false; 3], |s| s[t]);
+            let patch: Patch<f32> = Patch::with_straight_edges(p, n, alpha as f64, s);
+            let (lo, hi) = patch.bounds();
+            (patch, (Vec3::from(lo), Vec3::from(hi)))
+        })
+        .unzip();
+    let degenerate = patches.iter().filter(|p| p.degenerate()).count();
+    let straight = straight.map_or(0, |s| s.iter().flatten().filter(|&&b| b).count());
+    PhongMesh { patches, bounds, degenerate, straight, method: Method::Certified }
+}
+
+impl PhongMesh {
+    /// Build a watertight Phong mesh from the caller's arrays: vertex positions and normals (one
+    /// per vertex), triangles and the shape factor `alpha` in [0, 1].
+    ///
+    /// Positions are welded (see [`crate::mesh::prepare`]: within
+    /// [`crate::mesh::WELD_TOLERANCE`] of the mesh's size), so triangles that share a position
+    /// share an edge whatever the indexing, and every edge that is not smooth (a crease, where
+    /// the normals are split, a border, a non-manifold edge) is kept straight: no ray slips
+    /// between two patches. Triangles keep their order (primID) and corner order (`u`, `v`).
+    /// For plain Phong tessellation use [`PhongMesh::builder`]`(..).plain()`.
+    ///
+    /// Refused, naming the vertex or triangle: a normal count that differs from the position
+    /// count, an out-of-range index, a non-finite position or normal, a zero normal, an alpha
+    /// outside [0, 1].
+    pub fn new(
+        positions: Vec<Vec3>,
+        normals: Vec<Vec3>,
+        indices: Vec<[u32; 3]>,
+        alpha: f32,
+    ) -> Result<Self, PhongMeshError> {
+        Self::builder(&positions, &normals, &indices).alpha(alpha).build()
+    }
+
+    /// Options for a mesh of these arrays (watertight, alpha 1, certified intersection unless
+    /// set): see [`PhongMeshBuilder`].
+    pub fn builder<'a>(
+        positions: &'a [Vec3],
+        normals: &'a [Vec3],
+        indices: &'a [[u32; 3]],
+    ) -> PhongMeshBuilder<'a> {
+        PhongMeshBuilder {
+            positions,
+            normals,
+            indices,
+            alpha: 1.0,
+            edges: EdgeRule::Watertight { weld_tolerance: crate::mesh::WELD_TOLERANCE },
+            method: Method::Certified,
+        }
+    }
+
+    /// The arrays as given (no welding), keeping edge `k` of triangle `t` straight where
+    /// `straight[t][k]` (`None`: plain Phong tessellation). For arrays already prepared, such
+    /// as the OBJ loader's meshes with [`crate::scene::Mesh::straight_edges`].
+    pub fn with_straight_edges(
+        positions: &[Vec3],
+        normals: &[Vec3],
+        indices: &[[u32; 3]],
+        alpha: f32,
+        straight: Option<&[[bool; 3]]>,
+    ) -> Result<Self, PhongMeshError> {
+        let b = Self::builder(positions, normals, indices).alpha(alpha);
+        match straight {
+            Some(s) => b.straight_edges(s),
+            None => b.plain(),
+        }
+        .build()
+    }
+
+    /// How many triangle edges are kept straight (a shared edge counts once per triangle).
+    pub fn straight_edge_count(&self) -> usize {
+        self.straight
     }
 
     /// The patches, one per triangle (primID order).
@@ -203,20 +363,24 @@ impl UserPrimitives for PhongMesh {
 }
 
 impl Scene {
-    /// Attach a Phong mesh as one user geometry; the scene owns it. Returns the geomID.
+    /// Attach a Phong mesh as one user geometry. Returns the geomID.
+    ///
+    /// The scene shares the mesh: pass an `Arc<PhongMesh>` and keep a clone of the `Arc` for
+    /// shading queries ([`PhongMesh::shading_normal`] and the rest), no copy of the patches is
+    /// made. A `PhongMesh` passed by value is moved into a new `Arc` the scene alone holds.
     pub fn attach_phong(
         &mut self,
-        mesh: PhongMesh,
+        mesh: impl Into<Arc<PhongMesh>>,
         options: UserGeometryOptions,
     ) -> Result<u32, EmbreeError> {
-        self.attach_user(mesh, options)
+        self.attach_user(mesh.into(), options)
     }
 }
 
 /// A Phong mesh attached to a raw `RTCScene` the caller manages: keep this handle alive until
 /// every scene holding the geometry is released, then drop it.
 pub struct RawPhongGeometry {
-    data: Box<UserData<PhongMesh>>,
+    data: Box<UserData<Arc<PhongMesh>>>,
     geom_id: u32,
 }
 
@@ -224,6 +388,11 @@ impl RawPhongGeometry {
     /// The mesh (for shading helpers).
     pub fn mesh(&self) -> &PhongMesh {
         &self.data.prims
+    }
+
+    /// The mesh as the shared handle the geometry holds (cloning it copies no patch).
+    pub fn shared_mesh(&self) -> Arc<PhongMesh> {
+        self.data.prims.clone()
     }
 
     /// The geomID in the caller's scene.
@@ -239,24 +408,28 @@ impl RawPhongGeometry {
     }
 }
 
-/// Attach `mesh` to a raw Embree scene created by the caller's own Embree code.
+/// Attach `mesh` (a `PhongMesh`, or an `Arc<PhongMesh>` the caller shares) to a raw Embree scene
+/// created by the caller's own Embree code.
 ///
 /// # Safety
 /// `scene` must be a live `RTCScene`, and the returned handle must outlive every use of the
 /// scene (and of any scene instancing it) in ray queries.
 pub unsafe fn attach_phong_raw(
     scene: sys::RTCScene,
-    mesh: PhongMesh,
+    mesh: impl Into<Arc<PhongMesh>>,
     options: UserGeometryOptions,
 ) -> Result<RawPhongGeometry, EmbreeError> {
-    let data = Box::new(UserData::new(mesh));
+    if scene.is_null() {
+        return Err(EmbreeError::Null("scene"));
+    }
+    let data = Box::new(UserData::new(mesh.into()));
     // SAFETY: the caller guarantees `scene` is live; rtcGetSceneDevice returns its device with
     // a new reference, released below (rtcGetSceneDevice docs). The data box lives in the
     // returned handle, which the caller keeps alive while the scene is traced (this function's
     // contract), so the geometry's user pointer stays valid.
     unsafe {
         let device = sys::rtcGetSceneDevice(scene);
-        let geom = new_user_geometry(device, &*data as *const UserData<PhongMesh>, options);
+        let geom = new_user_geometry(device, &*data as *const UserData<Arc<PhongMesh>>, options);
         if geom.is_null() {
             sys::rtcReleaseDevice(device);
             return Err(EmbreeError::Null("user geometry"));

@@ -38,6 +38,23 @@ pub trait UserPrimitives: Send + Sync + 'static {
     fn intersect(&self, prim: u32, org: Vec3, dir: Vec3, tnear: f32, tfar: f32) -> Option<PrimHit>;
 }
 
+/// Shared primitives: the scene holds one reference, the caller keeps others (for shading
+/// queries on the same data, without a copy).
+impl<T: UserPrimitives> UserPrimitives for Arc<T> {
+    fn count(&self) -> u32 {
+        (**self).count()
+    }
+
+    fn bounds(&self, prim: u32) -> Option<(Vec3, Vec3)> {
+        (**self).bounds(prim)
+    }
+
+    #[inline]
+    fn intersect(&self, prim: u32, org: Vec3, dir: Vec3, tnear: f32, tfar: f32) -> Option<PrimHit> {
+        (**self).intersect(prim, org, dir, tnear, tfar)
+    }
+}
+
 /// What a user geometry's `geometryUserPtr` points to: the primitives and the record of
 /// callback panics that no Rust caller was waiting for.
 pub(crate) struct UserData<T> {

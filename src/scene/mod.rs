@@ -9,6 +9,9 @@
 pub mod mtl;
 pub mod obj;
 
+use crate::mesh::weld;
+pub use crate::mesh::{classify_edges, EdgeKind};
+
 use std::collections::HashMap;
 use std::io::Write;
 use std::path::{Path, PathBuf};
@@ -115,19 +118,6 @@ pub fn cut_token(s: &str) -> String {
     }
 }
 
-/// How an edge of a triangle relates to its neighbour (edge `i` runs from corner `i` to `i+1`).
-#[derive(Clone, Copy, Debug, PartialEq, Eq, Hash)]
-pub enum EdgeKind {
-    /// Shared with one neighbour, same vertices (so same normals) at both ends.
-    Smooth,
-    /// Shared with one neighbour by position, but the normals differ at an end.
-    Crease,
-    /// No neighbour.
-    Border,
-    /// More than two triangles share the edge.
-    NonManifold,
-}
-
 /// Where a mesh's normals come from.
 #[derive(Clone, Copy, Debug, PartialEq, Eq)]
 pub enum NormalsSource {
@@ -184,7 +174,7 @@ impl Mesh {
     /// Per triangle edge: whether Phong tessellation must keep it straight (every edge that is
     /// not smooth: a crease, a border or a non-manifold edge), for watertight creases.
     pub fn straight_edges(&self) -> Vec<[bool; 3]> {
-        self.edge_kinds.iter().map(|k| k.map(|e| e != EdgeKind::Smooth)).collect()
+        crate::mesh::straight_edges(&self.edge_kinds)
     }
 }
 
@@ -505,56 +495,6 @@ pub fn load_obj_text(text: &str, path: &Path, opts: &LoadOptions) -> Result<Scen
     Ok(scene)
 }
 
-/// Weld positions using a hash grid of cell `tol`; returns a position id per input position
-/// (ids index the first position of each cluster). Two positions weld when their distance is at
-/// most `tol` and at most both of their `caps` (a tenth of each one's shortest incident edge, so
-/// no triangle with a non-zero edge can lose a corner: see `build_mesh`).
-fn weld(points: &[Vec3], caps: &[f64], tol: f32) -> Vec<u32> {
-    if tol <= 0.0 {
-        // Exact welding on bit patterns (+0 and -0 equal).
-        let mut map: HashMap<[u32; 3], u32> = HashMap::with_capacity(points.len());
-        return points
-            .iter()
-            .enumerate()
-            .map(|(i, p)| *map.entry((*p + Vec3::ZERO).to_array().map(f32::to_bits)).or_insert(i as u32))
-            .collect();
-    }
-    let tol = tol as f64;
-    let cell = |p: Vec3| {
-        let q = p.as_dvec3() / tol;
-        (q.x.floor() as i64, q.y.floor() as i64, q.z.floor() as i64)
-    };
-    let mut grid: HashMap<(i64, i64, i64), Vec<u32>> = HashMap::with_capacity(points.len());
-    let mut ids = Vec::with_capacity(points.len());
-    for (i, p) in points.iter().enumerate() {
-        let c = cell(*p);
-        let ti = tol.min(caps[i]);
-        let mut found = None;
-        'search: for dx in -1..=1 {
-            for dy in -1..=1 {
-                for dz in -1..=1 {
-                    let key = (c.0.saturating_add(dx), c.1.saturating_add(dy), c.2.saturating_add(dz));
-                    if let Some(list) = grid.get(&key) {
-                        for &j in list {
-                            let d = points[j as usize].as_dvec3().distance(p.as_dvec3());
-                            if d <= ti.min(caps[j as usize]) {
-                                found = Some(ids[j as usize]);
-                                break 'search;
-                            }
-                        }
-                    }
-                }
-            }
-        }
-        let id = found.unwrap_or(i as u32);
-        ids.push(id);
-        if found.is_none() {
-            grid.entry(c).or_default().push(i as u32);
-        }
-    }
-    ids
-}
-
 fn angle_at(a: Vec3, b: Vec3, c: Vec3) -> f32 {
     // The interior angle at `a` of triangle (a, b, c), robust for small angles.
     // In f64, so huge coordinates cannot overflow into a NaN weight.
@@ -769,39 +709,6 @@ fn build_mesh(
         normals_source,
         corner_uvs,
     })
-}
-
-/// Classify every triangle edge by its neighbours on welded positions.
-pub fn classify_edges(indices: &[[u32; 3]], position_ids: &[u32]) -> Vec<[EdgeKind; 3]> {
-    let mut edges: HashMap<(u32, u32), Vec<(usize, usize)>> = HashMap::new();
-    for (t, tri) in indices.iter().enumerate() {
-        for k in 0..3 {
-            let (a, b) = (position_ids[tri[k] as usize], position_ids[tri[(k + 1) % 3] as usize]);
-            edges.entry((a.min(b), a.max(b))).or_default().push((t, k));
-        }
-    }
-    let mut kinds = vec![[EdgeKind::Border; 3]; indices.len()];
-    for list in edges.values() {
-        let kind = match list.len() {
-            1 => EdgeKind::Border,
-            2 => {
-                let (t0, k0) = list[0];
-                let (t1, k1) = list[1];
-                let e0 = [indices[t0][k0], indices[t0][(k0 + 1) % 3]];
-                let e1 = [indices[t1][k1], indices[t1][(k1 + 1) % 3]];
-                if (e0[0] == e1[1] && e0[1] == e1[0]) || (e0[0] == e1[0] && e0[1] == e1[1]) {
-                    EdgeKind::Smooth
-                } else {
-                    EdgeKind::Crease
-                }
-            }
-            _ => EdgeKind::NonManifold,
-        };
-        for &(t, k) in list {
-            kinds[t][k] = kind;
-        }
-    }
-    kinds
 }
 
 /// A UV sphere of `segments` × `rings` with exact normals (poles are single vertices).

@@ -360,8 +360,8 @@ pub struct Object {
     pub positions: Vec<Vec3>,
     pub indices: Vec<[u32; 3]>,
     pub surface: Surface,
-    /// The patches, for Phong objects (shared with the Embree geometry's copy).
-    pub phong: Option<PhongMesh>,
+    /// The patches, for Phong objects (shared with the Embree geometry: one copy).
+    pub phong: Option<std::sync::Arc<PhongMesh>>,
     /// The ground plane (not a scene object: `[[object]] name = "*"` leaves it alone).
     pub is_ground: bool,
     /// The `map_Kd` texture (multiplying `kd`, as MTL defines it), with the corners' `vt` per
@@ -471,6 +471,7 @@ impl World {
                         straight.as_deref(),
                     )
                     .map_err(|source| RenderError::PhongMesh { name: mesh.name.clone(), source })?;
+                    let pm = std::sync::Arc::new(pm);
                     phong = Some(pm.clone());
                     scene
                         .attach_phong(pm, UserGeometryOptions::default())

@@ -1,0 +1,267 @@
+//! Mesh preparation for Phong tessellation, on plain arrays: welding by position, edge classes
+//! and the straight-edge rule that keeps creases and borders watertight.
+//!
+//! Phong tessellation bends each edge of a triangle by the normals at its two ends. Two triangles
+//! that share an edge by position but not its normals (a *crease*: split normals, as exporters
+//! write hard edges) bend it two different ways and part along it; a *border* edge bends away
+//! from whatever it was meant to meet. Keeping every edge that is not smooth straight closes both
+//! ([`straight_edges`]). [`prepare`] does it all for a user's own arrays; the OBJ loader
+//! ([`crate::scene`]) uses the same pieces.
+
+use std::collections::HashMap;
+
+use glam::{DVec3, Vec3};
+
+/// How an edge of a triangle relates to its neighbour (edge `i` runs from corner `i` to `i+1`).
+#[derive(Clone, Copy, Debug, PartialEq, Eq, Hash)]
+pub enum EdgeKind {
+    /// Shared with one neighbour, same vertices (so same normals) at both ends.
+    Smooth,
+    /// Shared with one neighbour by position, but the normals differ at an end.
+    Crease,
+    /// No neighbour.
+    Border,
+    /// More than two triangles share the edge.
+    NonManifold,
+}
+
+/// Weld positions using a hash grid of cell `tol`; returns a position id per input position
+/// (ids index the first position of each cluster). Two positions weld when their distance is at
+/// most `tol` and at most both of their `caps` (a tenth of each one's shortest incident edge, so
+/// no triangle with a non-zero edge can lose a corner: see [`weld_caps`]).
+pub fn weld(points: &[Vec3], caps: &[f64], tol: f32) -> Vec<u32> {
+    if tol <= 0.0 {
+        // Exact welding on bit patterns (+0 and -0 equal).
+        let mut map: HashMap<[u32; 3], u32> = HashMap::with_capacity(points.len());
+        return points
+            .iter()
+            .enumerate()
+            .map(|(i, p)| *map.entry((*p + Vec3::ZERO).to_array().map(f32::to_bits)).or_insert(i as u32))
+            .collect();
+    }
+    let tol = tol as f64;
+    let cell = |p: Vec3| {
+        let q = p.as_dvec3() / tol;
+        (q.x.floor() as i64, q.y.floor() as i64, q.z.floor() as i64)
+    };
+    let mut grid: HashMap<(i64, i64, i64), Vec<u32>> = HashMap::with_capacity(points.len());
+    let mut ids = Vec::with_capacity(points.len());
+    for (i, p) in points.iter().enumerate() {
+        let c = cell(*p);
+        let ti = tol.min(caps[i]);
+        let mut found = None;
+        'search: for dx in -1..=1 {
+            for dy in -1..=1 {
+                for dz in -1..=1 {
+                    let key = (c.0.saturating_add(dx), c.1.saturating_add(dy), c.2.saturating_add(dz));
+                    if let Some(list) = grid.get(&key) {
+                        for &j in list {
+                            let d = points[j as usize].as_dvec3().distance(p.as_dvec3());
+                            if d <= ti.min(caps[j as usize]) {
+                                found = Some(ids[j as usize]);
+                                break 'search;
+                            }
+                        }
+                    }
+                }
+            }
+        }
+        let id = found.unwrap_or(i as u32);
+        ids.push(id);
+        if found.is_none() {
+            grid.entry(c).or_default().push(i as u32);
+        }
+    }
+    ids
+}
+
+/// Classify every triangle edge by its neighbours on welded positions.
+pub fn classify_edges(indices: &[[u32; 3]], position_ids: &[u32]) -> Vec<[EdgeKind; 3]> {
+    let mut edges: HashMap<(u32, u32), Vec<(usize, usize)>> = HashMap::new();
+    for (t, tri) in indices.iter().enumerate() {
+        for k in 0..3 {
+            let (a, b) = (position_ids[tri[k] as usize], position_ids[tri[(k + 1) % 3] as usize]);
+            edges.entry((a.min(b), a.max(b))).or_default().push((t, k));
+        }
+    }
+    let mut kinds = vec![[EdgeKind::Border; 3]; indices.len()];
+    for list in edges.values() {
+        let kind = match list.len() {
+            1 => EdgeKind::Border,
+            2 => {
+                let (t0, k0) = list[0];
+                let (t1, k1) = list[1];
+                let e0 = [indices[t0][k0], indices[t0][(k0 + 1) % 3]];
+                let e1 = [indices[t1][k1], indices[t1][(k1 + 1) % 3]];
+                if (e0[0] == e1[1] && e0[1] == e1[0]) || (e0[0] == e1[0] && e0[1] == e1[1]) {
+                    EdgeKind::Smooth
+                } else {
+                    EdgeKind::Crease
+                }
+            }
+            _ => EdgeKind::NonManifold,
+        };
+        for &(t, k) in list {
+            kinds[t][k] = kind;
+        }
+    }
+    kinds
+}
+
+/// Per position, a tenth of its shortest non-zero incident edge over `triangles` (infinite for a
+/// position no such edge touches): the caps of [`weld`], so that welding moves no corner of an
+/// edge of length `L` farther than `0.1 L` and never collapses a triangle.
+pub fn weld_caps(positions: &[Vec3], triangles: &[[u32; 3]]) -> Vec<f64> {
+    let mut caps = vec![f64::INFINITY; positions.len()];
+    for t in triangles {
+        for k in 0..3 {
+            let (a, b) = (t[k] as usize, t[(k + 1) % 3] as usize);
+            let len = positions[a].as_dvec3().distance(positions[b].as_dvec3());
+            if len > 0.0 {
+                caps[a] = caps[a].min(0.1 * len);
+                caps[b] = caps[b].min(0.1 * len);
+            }
+        }
+    }
+    caps
+}
+
+/// Per triangle edge: whether Phong tessellation must keep it straight (every edge that is not
+/// [`EdgeKind::Smooth`]: a crease, a border or a non-manifold edge).
+pub fn straight_edges(edge_kinds: &[[EdgeKind; 3]]) -> Vec<[bool; 3]> {
+    edge_kinds.iter().map(|k| k.map(|e| e != EdgeKind::Smooth)).collect()
+}
+
+/// The default welding tolerance of [`prepare`], relative to the diagonal of the bounds of the
+/// positions the triangles use (the OBJ loader's default too).
+pub const WELD_TOLERANCE: f32 = 1e-6;
+
+/// A mesh from the caller's arrays, prepared for watertight Phong tessellation by [`prepare`].
+///
+/// Triangles keep their order and corner order (so a hit's primID and `(u, v)` refer to the
+/// caller's triangle); only the vertex arrays are rebuilt.
+#[derive(Clone, Debug, PartialEq)]
+pub struct Prepared {
+    /// One per (welded position, unit normal).
+    pub positions: Vec<Vec3>,
+    /// Unit normals, one per vertex.
+    pub normals: Vec<Vec3>,
+    /// The caller's triangles, re-indexed into the vertices above.
+    pub indices: Vec<[u32; 3]>,
+    /// Per vertex: the welded position id (vertices with equal ids share a position).
+    pub position_ids: Vec<u32>,
+    /// Per triangle edge `k` = (corner `k`, corner `k+1`).
+    pub edge_kinds: Vec<[EdgeKind; 3]>,
+}
+
+impl Prepared {
+    /// Per triangle edge: keep it straight ([`straight_edges`] of the edge kinds).
+    pub fn straight_edges(&self) -> Vec<[bool; 3]> {
+        straight_edges(&self.edge_kinds)
+    }
+}
+
+/// Prepare the caller's arrays for watertight Phong tessellation:
+///
+/// 1. weld positions closer than `weld_tolerance` times the diagonal of the bounds of the used
+///    positions (capped per vertex by [`weld_caps`]); welded corners take the first position of
+///    their cluster, bit for bit;
+/// 2. make one vertex per (welded position, unit normal): corners that share a position and a
+///    normal share a vertex, whatever the caller's indexing (a triangle soup too), and all of
+///    them get that normal bit for bit;
+/// 3. classify the edges ([`classify_edges`]): an edge is smooth where both of its ends share
+///    vertices with the neighbour's, a crease where they share only positions.
+///
+/// The inputs must be valid: one normal per position, every index in range, finite positions
+/// and finite non-zero normals (`PhongMesh`'s constructors check, naming what is wrong).
+pub fn prepare(positions: &[Vec3], normals: &[Vec3], indices: &[[u32; 3]], weld_tolerance: f32) -> Prepared {
+    // Compute the welding tolerance from the size of what the triangles use.
+    let (mut lo, mut hi) = (DVec3::splat(f64::INFINITY), DVec3::splat(f64::NEG_INFINITY));
+    for &i in indices.iter().flatten() {
+        let p = positions[i as usize].as_dvec3();
+        lo = lo.min(p);
+        hi = hi.max(p);
+    }
+    let diag = if lo.x <= hi.x { (hi - lo).length() } else { 0.0 };
+    let tol = (weld_tolerance.max(0.0) as f64 * diag).min(f32::MAX as f64) as f32;
+
+    // Compute the welded position of every input vertex.
+    let caps = weld_caps(positions, indices);
+    let pid = weld(positions, &caps, tol);
+
+    // Compute one output vertex per (welded position, unit normal), in order of first use.
+    let mut vmap: HashMap<(u32, [u32; 3]), u32> = HashMap::with_capacity(positions.len());
+    let mut out = Prepared {
+        positions: Vec::with_capacity(positions.len()),
+        normals: Vec::with_capacity(positions.len()),
+        indices: Vec::with_capacity(indices.len()),
+        position_ids: Vec::with_capacity(positions.len()),
+        edge_kinds: Vec::new(),
+    };
+    let mut renumber: HashMap<u32, u32> = HashMap::new();
+    for tri in indices {
+        let t = tri.map(|i| {
+            let p = pid[i as usize];
+            // In f64: a tiny f32 normal has no f64 length underflow.
+            let n = normals[i as usize].as_dvec3().normalize_or_zero().as_vec3();
+            let key = (p, n.to_array().map(f32::to_bits));
+            *vmap.entry(key).or_insert_with(|| {
+                out.positions.push(positions[p as usize]);
+                out.normals.push(n);
+                let next = renumber.len() as u32;
+                out.position_ids.push(*renumber.entry(p).or_insert(next));
+                (out.positions.len() - 1) as u32
+            })
+        });
+        out.indices.push(t);
+    }
+    out.edge_kinds = classify_edges(&out.indices, &out.position_ids);
+    out
+}
+
+#[cfg(test)]
+mod tests {
+    use super::*;
+
+    /// Two triangles of a unit square as a soup (no shared vertices) with equal normals.
+    fn square_soup(n2: Vec3) -> (Vec<Vec3>, Vec<Vec3>, Vec<[u32; 3]>) {
+        let p = vec![
+            Vec3::new(0.0, 0.0, 0.0),
+            Vec3::new(1.0, 0.0, 0.0),
+            Vec3::new(1.0, 1.0, 0.0),
+            Vec3::new(0.0, 0.0, 0.0),
+            Vec3::new(1.0, 1.0, 0.0),
+            Vec3::new(0.0, 1.0, 0.0),
+        ];
+        let n = vec![Vec3::Z, Vec3::Z, Vec3::Z, Vec3::Z, n2, Vec3::Z];
+        (p, n, vec![[0, 1, 2], [3, 4, 5]])
+    }
+
+    #[test]
+    fn a_soup_with_equal_normals_welds_into_a_smooth_diagonal() {
+        let (p, n, i) = square_soup(Vec3::Z * 3.0);
+        let m = prepare(&p, &n, &i, WELD_TOLERANCE);
+        assert_eq!(m.positions.len(), 4);
+        assert_eq!(m.edge_kinds[0][2], EdgeKind::Smooth); // (2, 0) is the diagonal
+        assert_eq!(m.edge_kinds[0][0], EdgeKind::Border);
+        assert_eq!(m.straight_edges()[0], [true, true, false]);
+    }
+
+    #[test]
+    fn split_normals_make_the_diagonal_a_crease() {
+        let (p, n, i) = square_soup(Vec3::new(0.0, 0.6, 0.8));
+        let m = prepare(&p, &n, &i, WELD_TOLERANCE);
+        assert_eq!(m.positions.len(), 5);
+        assert_eq!(m.edge_kinds[0][2], EdgeKind::Crease);
+        assert_eq!(m.edge_kinds[1][0], EdgeKind::Crease);
+    }
+
+    #[test]
+    fn near_positions_weld_onto_the_first_bit_for_bit() {
+        let (mut p, n, i) = square_soup(Vec3::Z);
+        p[4] += Vec3::splat(1e-7);
+        let m = prepare(&p, &n, &i, WELD_TOLERANCE);
+        assert_eq!(m.positions.len(), 4);
+        assert_eq!(m.positions[m.indices[1][1] as usize], Vec3::new(1.0, 1.0, 0.0));
+    }
+}
