@@ -6,6 +6,7 @@
 //!   wrappers and the user-geometry callbacks. All `unsafe` code lives here.
 //! * [`scene`]: mesh preparation: OBJ/MTL loading, welding, normals, edge classes, generated
 //!   meshes.
+//! * [`rng`]: SplitMix64, the deterministic generator of the accuracy cases and the renderer.
 //! * [`sys`]: the raw Embree 4 bindings, for code that drives its own `RTCScene` (as git2 exposes
 //!   `raw`).
 //!
@@ -22,6 +23,7 @@
 
 pub mod embree;
 pub mod phong;
+pub mod rng;
 pub mod scene;
 pub mod sys;
 /// The glam this crate's API uses (`Vec3`, `DVec3`): depend on it through here to get the same

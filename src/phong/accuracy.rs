@@ -7,40 +7,8 @@ use super::intersect::{intersect, Method};
 use super::patch::Patch;
 use super::real::{Real, V3};
 use super::reference::{reference_intersect, reference_point};
-
-/// A small deterministic generator (SplitMix64).
-#[derive(Clone, Debug)]
-pub struct SplitMix(pub u64);
-
-impl SplitMix {
-    pub fn next_u64(&mut self) -> u64 {
-        self.0 = self.0.wrapping_add(0x9E37_79B9_7F4A_7C15);
-        let mut z = self.0;
-        z = (z ^ (z >> 30)).wrapping_mul(0xBF58_476D_1CE4_E5B9);
-        z = (z ^ (z >> 27)).wrapping_mul(0x94D0_49BB_1331_11EB);
-        z ^ (z >> 31)
-    }
-    /// Uniform in [0, 1).
-    pub fn f(&mut self) -> f64 {
-        (self.next_u64() >> 11) as f64 / (1u64 << 53) as f64
-    }
-    pub fn range(&mut self, a: f64, b: f64) -> f64 {
-        a + (b - a) * self.f()
-    }
-    /// Log-uniform in [a, b].
-    pub fn log_range(&mut self, a: f64, b: f64) -> f64 {
-        (a.ln() + (b.ln() - a.ln()) * self.f()).exp()
-    }
-    pub fn unit(&mut self) -> DVec3 {
-        loop {
-            let v = DVec3::new(self.range(-1.0, 1.0), self.range(-1.0, 1.0), self.range(-1.0, 1.0));
-            let l = v.length_squared();
-            if l > 1e-6 && l <= 1.0 {
-                return v / l.sqrt();
-            }
-        }
-    }
-}
+/// The case generator's RNG, from its neutral home [`crate::rng`] (kept here for existing users).
+pub use crate::rng::SplitMix;
 
 /// The categories of hard cases.
 #[derive(Clone, Copy, Debug, PartialEq, Eq, Hash)]
