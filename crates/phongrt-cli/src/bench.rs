@@ -503,7 +503,7 @@ pub fn bench_scene(
 }
 
 /// The median of `v` (reordered), 0 when empty.
-fn median(v: &mut [f64]) -> f64 {
+pub fn median(v: &mut [f64]) -> f64 {
     if v.is_empty() {
         return 0.0;
     }
