@@ -33,8 +33,11 @@ use retry::{decide_in_f64, sliver_from_afar};
 /// A hit: ray parameter and Embree-convention barycentrics.
 #[derive(Clone, Copy, Debug, PartialEq)]
 pub struct PatchHit<T> {
+    /// The ray parameter: the hit point is `org + t dir`.
     pub t: T,
+    /// The barycentric of the second vertex.
     pub u: T,
+    /// The barycentric of the third vertex.
     pub v: T,
 }
 
