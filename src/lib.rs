@@ -8,6 +8,7 @@
 //!   [`embree::PhongMesh::new`] does to the caller's arrays).
 //! * [`scene`]: OBJ/MTL loading (welding, normals, edge classes, through [`mesh`]), generated
 //!   meshes.
+//! * [`rng`]: SplitMix64, the deterministic generator of the accuracy cases and the renderer.
 //! * [`sys`]: the raw Embree 4 bindings, for code that drives its own `RTCScene` (as git2 exposes
 //!   `raw`).
 //!
@@ -25,6 +26,7 @@
 pub mod embree;
 pub mod mesh;
 pub mod phong;
+pub mod rng;
 pub mod scene;
 pub mod sys;
 /// The glam this crate's API uses (`Vec3`, `DVec3`): depend on it through here to get the same

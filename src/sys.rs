@@ -8,6 +8,8 @@
 // Generated code: bindgen writes its own unsafe blocks (bitfield accessors), without SAFETY comments.
 #![allow(non_upper_case_globals, non_camel_case_types, non_snake_case, dead_code, clippy::all)]
 #![allow(clippy::undocumented_unsafe_blocks, unsafe_op_in_unsafe_fn)]
+// Generated code: the items are documented by Embree's headers and manual, not here.
+#![allow(missing_docs)]
 
 include!(concat!(env!("OUT_DIR"), "/embree4.rs"));
 

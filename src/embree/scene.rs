@@ -13,11 +13,17 @@ use crate::sys;
 /// A ray with its valid interval `(tnear, tfar)`; `mask` is tested against geometry masks.
 #[derive(Clone, Copy, Debug, PartialEq)]
 pub struct Ray {
+    /// The origin.
     pub org: Vec3,
+    /// The direction (any non-zero length; `t` is in its units).
     pub dir: Vec3,
+    /// The start of the valid interval.
     pub tnear: f32,
+    /// The end of the valid interval.
     pub tfar: f32,
+    /// Tested against each geometry's mask: a geometry is hit only if `mask & its mask != 0`.
     pub mask: u32,
+    /// The time, for motion blur (Embree's `time`).
     pub time: f32,
 }
 
@@ -60,12 +66,17 @@ impl Ray {
 /// The nearest hit of a ray, as Embree reports it.
 #[derive(Clone, Copy, Debug, PartialEq)]
 pub struct Hit {
+    /// The ray parameter of the hit.
     pub t: f32,
     /// Unnormalised geometric normal (for Phong geometry: the true surface normal).
     pub ng: Vec3,
+    /// The barycentric of the primitive's second vertex.
     pub u: f32,
+    /// The barycentric of the primitive's third vertex.
     pub v: f32,
+    /// The primitive's index in its geometry.
     pub prim_id: u32,
+    /// The geometry's ID in the scene that holds it.
     pub geom_id: u32,
     /// Instance IDs from the outermost level; `u32::MAX` where unused.
     pub inst_id: [u32; MAX_INSTANCE_LEVEL_COUNT],

@@ -21,8 +21,11 @@ use crate::sys;
 /// A hit on one primitive, in the primitive's own space (instances are Embree's business).
 #[derive(Clone, Copy, Debug, PartialEq)]
 pub struct PrimHit {
+    /// The ray parameter of the hit.
     pub t: f32,
+    /// The barycentric of the primitive's second vertex.
     pub u: f32,
+    /// The barycentric of the primitive's third vertex.
     pub v: f32,
     /// Geometric normal (any length, oriented like Embree's triangles: `dp/du x dp/dv`).
     pub ng: Vec3,
@@ -465,7 +468,9 @@ impl Scene {
 /// Flat triangles as a user geometry with a plain Möller–Trumbore triangle test:
 /// the floor of what the callback route costs, and a check of the callback plumbing.
 pub struct UserTriangles {
+    /// The vertex positions.
     pub positions: Vec<Vec3>,
+    /// Three vertex indices per triangle.
     pub indices: Vec<[u32; 3]>,
 }
 

@@ -7,57 +7,36 @@ use super::intersect::{intersect, Method};
 use super::patch::Patch;
 use super::real::{Real, V3};
 use super::reference::{reference_intersect, reference_point};
-
-/// A small deterministic generator (SplitMix64).
-#[derive(Clone, Debug)]
-pub struct SplitMix(pub u64);
-
-impl SplitMix {
-    pub fn next_u64(&mut self) -> u64 {
-        self.0 = self.0.wrapping_add(0x9E37_79B9_7F4A_7C15);
-        let mut z = self.0;
-        z = (z ^ (z >> 30)).wrapping_mul(0xBF58_476D_1CE4_E5B9);
-        z = (z ^ (z >> 27)).wrapping_mul(0x94D0_49BB_1331_11EB);
-        z ^ (z >> 31)
-    }
-    /// Uniform in [0, 1).
-    pub fn f(&mut self) -> f64 {
-        (self.next_u64() >> 11) as f64 / (1u64 << 53) as f64
-    }
-    pub fn range(&mut self, a: f64, b: f64) -> f64 {
-        a + (b - a) * self.f()
-    }
-    /// Log-uniform in [a, b].
-    pub fn log_range(&mut self, a: f64, b: f64) -> f64 {
-        (a.ln() + (b.ln() - a.ln()) * self.f()).exp()
-    }
-    pub fn unit(&mut self) -> DVec3 {
-        loop {
-            let v = DVec3::new(self.range(-1.0, 1.0), self.range(-1.0, 1.0), self.range(-1.0, 1.0));
-            let l = v.length_squared();
-            if l > 1e-6 && l <= 1.0 {
-                return v / l.sqrt();
-            }
-        }
-    }
-}
+/// The case generator's RNG, from its neutral home [`crate::rng`] (kept here for existing users).
+pub use crate::rng::SplitMix;
 
 /// The categories of hard cases.
 #[derive(Clone, Copy, Debug, PartialEq, Eq, Hash)]
 pub enum Category {
+    /// Well-shaped triangles, normals tilted up to 0.7 rad, alpha in 0.5..1.
     RandomCurved,
+    /// Normals within 1e-7..1e-2 rad of the face normal.
     NearFlat,
+    /// Shape factor 0: the flat triangle.
     AlphaZero,
+    /// All normals equal to the face normal, alpha > 0 (a flat patch).
     PlanarNormals,
+    /// Normals tilted 60 to 80 degrees.
     StronglyCurved,
+    /// Rays within 1e-5..1e-1 rad of the tangent plane.
     Grazing,
+    /// Patches 10 to 1e5 units from the origin.
     FarFromOrigin,
+    /// Patches of size 1e-4.
     Tiny,
+    /// Patches of size 1e5.
     Huge,
+    /// Ray directions of length 1e-4..1e4.
     DirectionScale,
 }
 
 impl Category {
+    /// Every category, in the report's order.
     pub const ALL: [Category; 10] = [
         Category::RandomCurved,
         Category::NearFlat,
@@ -70,6 +49,7 @@ impl Category {
         Category::Huge,
         Category::DirectionScale,
     ];
+    /// The category's label in the report.
     pub fn name(self) -> &'static str {
         match self {
             Category::RandomCurved => "random curved",
@@ -89,10 +69,15 @@ impl Category {
 /// One generated case: a patch, a ray, and how close to tangency the ray is.
 #[derive(Clone, Debug)]
 pub struct Case {
+    /// The triangle's vertices.
     pub p: [DVec3; 3],
+    /// The vertex normals.
     pub n: [DVec3; 3],
+    /// The shape factor.
     pub alpha: f64,
+    /// The ray's origin.
     pub org: DVec3,
+    /// The ray's direction (not normalised).
     pub dir: DVec3,
     /// Angle between the ray and the tangent plane at the aimed point (radians).
     pub grazing_angle: f64,
@@ -188,9 +173,19 @@ pub fn generate(rng: &mut SplitMix, cat: Category) -> Case {
 /// Errors of one method on one case.
 #[derive(Clone, Copy, Debug)]
 pub enum Outcome {
-    Agree { rel_t: f64, point_err: f64 },
+    /// Both hit: the relative error of `t`, and the hit point's distance from the reference's
+    /// relative to the patch size.
+    Agree {
+        /// `|t - t_ref| / t_ref`.
+        rel_t: f64,
+        /// `|hit - hit_ref| / size`.
+        point_err: f64,
+    },
+    /// The reference hits, the method misses.
     FalseMiss,
+    /// The method hits, the reference misses.
     FalseHit,
+    /// Both miss.
     BothMiss,
 }
 
@@ -224,13 +219,21 @@ pub fn evaluate<T: Real>(case: &Case, method: Method) -> Outcome {
 /// Summary for one (method, precision, category).
 #[derive(Clone, Debug)]
 pub struct Row {
+    /// The method's label (`analytic`, `analytic+polish`, `newton`, `certified`).
     pub method: &'static str,
+    /// `f32` or `f64`.
     pub precision: &'static str,
+    /// The category of cases.
     pub category: Category,
+    /// Cases where both hit (the error columns are over these).
     pub cases: usize,
+    /// The relative `t` error: median, 99th percentile, maximum.
     pub rel_t: [f64; 3],
+    /// The hit point's error relative to the patch size: median, 99th percentile, maximum.
     pub point: [f64; 3],
+    /// False misses.
     pub false_miss: usize,
+    /// False hits.
     pub false_hit: usize,
     /// False misses of rays within 1e-4 rad of tangency (allowed by the targets).
     pub false_miss_near_tangent: usize,
@@ -248,8 +251,11 @@ fn percentiles(mut v: Vec<f64>) -> [f64; 3] {
 /// The whole report.
 #[derive(Clone, Debug)]
 pub struct AccuracyReport {
+    /// One row per (method, precision, category).
     pub rows: Vec<Row>,
+    /// Cases generated per category.
     pub rays_per_category: usize,
+    /// The generator's seed.
     pub seed: u64,
 }
 

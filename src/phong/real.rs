@@ -16,21 +16,33 @@ pub trait Real:
     + Sync
     + 'static
 {
+    /// Zero.
     const ZERO: Self;
+    /// One.
     const ONE: Self;
     /// Unit roundoff (half the machine epsilon).
     const UNIT_ROUNDOFF: Self;
+    /// `x` rounded to this precision.
     fn from_f64(x: f64) -> Self;
+    /// The value in f64 (exact).
     fn to_f64(self) -> f64;
+    /// The square root.
     fn sqrt(self) -> Self;
+    /// The absolute value.
     fn abs(self) -> Self;
+    /// The cube root.
     fn cbrt(self) -> Self;
+    /// The arccosine, in radians.
     fn acos(self) -> Self;
+    /// The cosine of an angle in radians.
     fn cos(self) -> Self;
+    /// Neither infinite nor NaN.
     fn is_finite(self) -> bool;
     /// Whether the sign bit is clear (true for +0.0, false for -0.0).
     fn is_sign_positive(self) -> bool;
+    /// `self * a + b` (two roundings: not a fused multiply-add).
     fn mul_add(self, a: Self, b: Self) -> Self;
+    /// The larger of the two; `o` when either is NaN.
     fn max(self, o: Self) -> Self {
         if self > o {
             self
@@ -38,6 +50,7 @@ pub trait Real:
             o
         }
     }
+    /// The smaller of the two; `o` when either is NaN.
     fn min(self, o: Self) -> Self {
         if self < o {
             self
@@ -45,6 +58,7 @@ pub trait Real:
             o
         }
     }
+    /// `self` with the sign of `sign` (by comparison with zero: -0.0 counts as positive).
     fn copysign(self, sign: Self) -> Self {
         if (sign < Self::ZERO) == (self < Self::ZERO) {
             self
@@ -116,42 +130,55 @@ impl_real!(f64);
 /// A 3-vector over [`Real`].
 #[derive(Clone, Copy, Debug, PartialEq)]
 pub struct V3<T> {
+    /// The x component.
     pub x: T,
+    /// The y component.
     pub y: T,
+    /// The z component.
     pub z: T,
 }
 
 impl<T: Real> V3<T> {
+    /// The vector `(x, y, z)`.
     #[inline(always)]
     pub fn new(x: T, y: T, z: T) -> Self {
         V3 { x, y, z }
     }
+    /// The zero vector.
     pub fn zero() -> Self {
         V3::new(T::ZERO, T::ZERO, T::ZERO)
     }
+    /// The dot product.
     #[inline(always)]
     pub fn dot(self, o: Self) -> T {
         self.x * o.x + self.y * o.y + self.z * o.z
     }
+    /// The cross product.
     #[inline(always)]
     pub fn cross(self, o: Self) -> Self {
         V3::new(self.y * o.z - self.z * o.y, self.z * o.x - self.x * o.z, self.x * o.y - self.y * o.x)
     }
+    /// The Euclidean length.
     pub fn length(self) -> T {
         self.dot(self).sqrt()
     }
+    /// The componentwise absolute value.
     pub fn abs(self) -> Self {
         V3::new(self.x.abs(), self.y.abs(), self.z.abs())
     }
+    /// The largest absolute component.
     pub fn max_abs(self) -> T {
         self.x.abs().max(self.y.abs()).max(self.z.abs())
     }
+    /// The componentwise minimum.
     pub fn min_elem(self, o: Self) -> Self {
         V3::new(self.x.min(o.x), self.y.min(o.y), self.z.min(o.z))
     }
+    /// The componentwise maximum.
     pub fn max_elem(self, o: Self) -> Self {
         V3::new(self.x.max(o.x), self.y.max(o.y), self.z.max(o.z))
     }
+    /// Whether every component is finite.
     pub fn is_finite(self) -> bool {
         self.x.is_finite() && self.y.is_finite() && self.z.is_finite()
     }
@@ -160,9 +187,11 @@ impl<T: Real> V3<T> {
         let l = self.length();
         (l > T::ZERO && l.is_finite()).then(|| self * (T::ONE / l))
     }
+    /// The vector in f64 (exact).
     pub fn to_f64(self) -> V3<f64> {
         V3::new(self.x.to_f64(), self.y.to_f64(), self.z.to_f64())
     }
+    /// The vector rounded to precision `U`.
     pub fn cast<U: Real>(self) -> V3<U> {
         V3::new(U::from_f64(self.x.to_f64()), U::from_f64(self.y.to_f64()), U::from_f64(self.z.to_f64()))
     }

@@ -14,8 +14,11 @@ use super::real::V3;
 /// A reference hit.
 #[derive(Clone, Copy, Debug, PartialEq)]
 pub struct RefHit {
+    /// The ray parameter.
     pub t: f64,
+    /// The barycentric of the second vertex.
     pub u: f64,
+    /// The barycentric of the third vertex.
     pub v: f64,
 }
 

@@ -10,12 +10,8 @@ use phongrt::embree::{
     set_flush_denormals, Device, GeometryOptions, PhongMesh, Ray, Scene, UserGeometryOptions,
 };
 use phongrt::scene::{load_obj, uv_sphere, LoadOptions, Mesh};
+use phongrt_cli::bench::median;
 use phongrt_cli::render::Camera;
-
-fn median(mut v: Vec<f64>) -> f64 {
-    v.sort_by(|a, b| a.partial_cmp(b).unwrap());
-    v[v.len() / 2]
-}
 
 fn build(device: &Device, m: &Mesh, phong: bool) -> (Scene, f64, i64, usize) {
     let before = device.memory_bytes().0;
@@ -83,8 +79,8 @@ fn main() {
                 "| {name} | {} | {} | {:.2} | {mem} | {own} | {:.2} |",
                 m.indices.len(),
                 if phong { "phong" } else { "flat" },
-                median(builds) * 1e3,
-                median(rates)
+                median(&mut builds) * 1e3,
+                median(&mut rates)
             );
         }
     }

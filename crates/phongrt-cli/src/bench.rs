@@ -314,7 +314,8 @@ fn build(device: &Device, m: &Mesh, method: BenchMethod, robust: bool) -> Result
 /// The shaded render of `shaded_ms`: returns the summed radiance (so the work is not optimised
 /// away, and as a cross-check between methods).
 fn shaded(scene: &Scene, frame: &crate::render::CameraFrame, width: u32, height: u32, light: Vec3) -> f64 {
-    use crate::render::world::{gamma, SurfacePoint};
+    use crate::render::world::SurfacePoint;
+    use phongrt::phong::Real;
     let row = |y: u32| -> f64 {
         let mut sum = 0.0f64;
         for x in 0..width {
@@ -334,7 +335,7 @@ fn shaded(scene: &Scene, frame: &crate::render::CameraFrame, width: u32, height:
                 // (pbrt-v4's OffsetRayOrigin with the renderer's fallback bound for o + t d).
                 let sp = SurfacePoint {
                     p: ray.at(h.t),
-                    p_error: gamma(7) * (ray.org.abs() + (h.t * ray.dir).abs()),
+                    p_error: <f32 as Real>::gamma(7) * (ray.org.abs() + (h.t * ray.dir).abs()),
                     ng: n,
                     n,
                     entering: true,
@@ -502,7 +503,7 @@ pub fn bench_scene(
 }
 
 /// The median of `v` (reordered), 0 when empty.
-fn median(v: &mut [f64]) -> f64 {
+pub fn median(v: &mut [f64]) -> f64 {
     if v.is_empty() {
         return 0.0;
     }

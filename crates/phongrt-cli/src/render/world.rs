@@ -9,8 +9,9 @@ use glam::{Vec2, Vec3};
 use super::texture::Texture;
 use super::{RayCounts, RenderError};
 use phongrt::embree::{Device, GeometryOptions, Hit, PhongMesh, Ray, Scene, UserGeometryOptions};
-use phongrt::phong::accuracy::SplitMix;
+use phongrt::phong::Real;
 use phongrt::phong::ShadingNormal;
+use phongrt::rng::SplitMix;
 use phongrt::scene as sc;
 
 /// How an object's surface is made.
@@ -940,11 +941,9 @@ pub fn fresnel_dielectric(cos_i: f32, cos_t: f32, eta: f32) -> f32 {
     }
 }
 
-/// `gamma(n) = n u / (1 - n u)` with `u` the f32 unit roundoff: the bound on the relative
-/// error of `n` successive f32 operations (pbrt-v4, §6.8).
-pub fn gamma(n: i32) -> f32 {
-    let u = f32::EPSILON * 0.5;
-    (n as f32 * u) / (1.0 - n as f32 * u)
+/// The library's `gamma(n)` in f32 ([`Real::gamma`]).
+fn gamma(n: u32) -> f32 {
+    <f32 as Real>::gamma(n)
 }
 
 impl SurfacePoint {
@@ -965,26 +964,13 @@ impl SurfacePoint {
         // Round away from p so the offset is not lost to rounding.
         for i in 0..3 {
             if offset[i] > 0.0 {
-                po[i] = next_float_up(po[i]);
+                po[i] = po[i].next_up();
             } else if offset[i] < 0.0 {
-                po[i] = next_float_down(po[i]);
+                po[i] = po[i].next_down();
             }
         }
         po
     }
-}
-
-pub fn next_float_up(x: f32) -> f32 {
-    if x.is_infinite() && x > 0.0 {
-        return x;
-    }
-    let x = if x == -0.0 { 0.0 } else { x };
-    let b = x.to_bits();
-    f32::from_bits(if x >= 0.0 { b + 1 } else { b - 1 })
-}
-
-pub fn next_float_down(x: f32) -> f32 {
-    -next_float_up(-x)
 }
 
 fn orthonormal_basis(n: Vec3) -> (Vec3, Vec3) {

@@ -1,0 +1,159 @@
+//! The certified method: Newton's iteration in the plane of `(u, v)`, trusted where a cheap
+//! certificate proves the ray meets the patch at most once near the triangle.
+
+use super::conic::Projected;
+use super::domain::{clamp_to_triangle, edge_band, inside, near_domain, on_ray};
+use super::newton::newton_step;
+use super::PatchHit;
+use crate::phong::patch::Patch;
+use crate::phong::real::{Real, V3};
+
+/// The corners' coordinates of the region `R` (the domain enlarged by 1.25 about its centroid):
+/// `(lo, lo)`, `(hi, lo)`, `(lo, hi)`.
+fn region<T: Real>() -> (T, T) {
+    (T::from_f64(-0.25 / 3.0), T::from_f64(3.5 / 3.0))
+}
+
+/// The certified Newton step of [`Method::Certified`](super::Method::Certified): `Some(answer)` when it is proven,
+/// `None` when the caller must run the analytic method.
+///
+/// Project the patch along the ray: `π(u, v) = (n1·P(u,v), n2·P(u,v))`, with `n1, n2` the ray's
+/// two planes. The ray meets the surface at `(u, v)` exactly where `π(u, v) = π(o)`. If the
+/// symmetric part of `J0⁻¹ J(u, v)` is positive definite over a convex region `R` (`J` the
+/// Jacobian of `π`, `J0` a fixed matrix), then `(x-y)ᵀ J0⁻¹ (π(x) - π(y)) > 0` for `x ≠ y` in
+/// `R`: `π` is one-to-one on `R` and the ray meets that part of the surface at most once
+/// (Gale & Nikaidô 1965). `J` is linear in `(u, v)`, so checking the three corners of a
+/// triangular `R` checks all of it. `R` is the domain enlarged by 1.25 about its centroid
+/// (larger regions fail the test on strongly curved patches more often than they save), so a
+/// Newton root in `R` but well outside the domain also proves a miss.
+///
+/// `π(u, v) - π(o)` is the pair of conics `(F, G)` of [`Projected`], so the Jacobian, the
+/// certificate and Newton's iteration all run in the plane on their 12 scalar coefficients
+/// (the analytic fallback reuses them); `t` is the surface point's projection on the ray.
+pub(super) fn certified_newton<T: Real>(
+    p: &Patch<T>,
+    o: V3<T>,
+    d: V3<T>,
+    pr: &Projected<T>,
+    tmin: T,
+    tmax: T,
+) -> Option<Option<PatchHit<T>>> {
+    // Compute the certificate, then the root in the plane, then its point in space.
+    if !one_to_one_on_region(pr) {
+        return None;
+    }
+    let (u, v) = flat_start(pr)?;
+    let (u, v, converged) = newton_plane(pr, u, v)?;
+    // The ray parameter of the surface point: its projection on the ray.
+    let mut t = (p.eval_local(u, v) - o).dot(d) / d.dot(d);
+    // A hit: one Newton step on (u, v, t) in space. Its correction is computed from a residual
+    // that is already at rounding level, so t ends within about an ulp of the f64 answer.
+    let (mut u, mut v) = (u, v);
+    if converged && inside(u, v) {
+        (u, v, t) = newton_step(p, o, d, u, v, t)?;
+    }
+    // The root must be converged, on the ray to rounding, and inside R (with room for its error).
+    let (lo, _) = region::<T>();
+    let slack = T::from_f64(0.005);
+    let in_r = u >= lo + slack && v >= lo + slack && u + v <= T::ONE - lo - slack;
+    if !converged || !on_ray(p, o, d, u, v, t) || !in_r {
+        return None;
+    }
+    decide(u, v, t, tmin, tmax)
+}
+
+/// The answer for a proven root `(u, v, t)` in `R`: a hit inside the domain and the interval,
+/// a proven miss outside, `None` (not proven) within the band where the analytic method would
+/// decide again in f64.
+fn decide<T: Real>(u: T, v: T, t: T, tmin: T, tmax: T) -> Option<Option<PatchHit<T>>> {
+    if inside(u, v) {
+        if !(t > tmin && t < tmax) {
+            return Some(None);
+        }
+        let (u, v) = clamp_to_triangle(u, v);
+        return Some(Some(PatchHit { t, u, v }));
+    }
+    if near_domain(u, v, edge_band::<T>()) {
+        return None;
+    }
+    Some(None)
+}
+
+/// The Jacobian `J(u, v) = [[F_u, F_v], [G_u, G_v]]` of the projected patch, linear in `(u, v)`.
+#[inline(always)]
+fn jacobian<T: Real>(pr: &Projected<T>, u: T, v: T) -> [T; 4] {
+    let ([fa, fb, fc, fd, fe, _], [ga, gb, gc, gd, ge, _]) = (pr.f.k, pr.g.k);
+    let two = T::ONE + T::ONE;
+    [
+        two * fa * u + fc * v + fd,
+        fc * u + two * fb * v + fe,
+        two * ga * u + gc * v + gd,
+        gc * u + two * gb * v + ge,
+    ]
+}
+
+/// Whether the symmetric part of `J0⁻¹ J` is clearly positive definite at the corners of `R`
+/// (`J0` the Jacobian at the centroid): then the projection is one-to-one on `R`.
+fn one_to_one_on_region<T: Real>(pr: &Projected<T>) -> bool {
+    let third = T::from_f64(1.0 / 3.0);
+    let j0 = jacobian(pr, third, third);
+    let det0 = j0[0] * j0[3] - j0[1] * j0[2];
+    let j0n = j0.iter().fold(T::ZERO, |m, x| m.max(x.abs()));
+    // A J0 within rounding of singular (the ray grazes the patch) proves nothing.
+    if !(det0.abs() > T::gamma(64).sqrt() * j0n * j0n) {
+        return false;
+    }
+    let inv = T::ONE / det0;
+    let (lo, hi) = region::<T>();
+    [(lo, lo), (hi, lo), (lo, hi)].into_iter().all(|(u, v)| {
+        let j = jacobian(pr, u, v);
+        // M = J0⁻¹ J; its symmetric part must be clearly positive definite (a margin of 1% of
+        // its diagonal product keeps the answer out of the rounding of J0⁻¹ and of J).
+        let m00 = (j0[3] * j[0] - j0[1] * j[2]) * inv;
+        let m01 = (j0[3] * j[1] - j0[1] * j[3]) * inv;
+        let m10 = (j0[0] * j[2] - j0[2] * j[0]) * inv;
+        let m11 = (j0[0] * j[3] - j0[2] * j[1]) * inv;
+        let h = (m01 + m10) * T::from_f64(0.5);
+        m00 > T::ZERO && m11 > T::ZERO && m00 * m11 - h * h > T::from_f64(0.01) * m00 * m11
+    })
+}
+
+/// The start of Newton's iteration: the ray's hit with the flat triangle (`F` and `G` with their
+/// quadratic terms dropped: `P(1,0) - P(0,0) = a + d`, `P(0,1) - P(0,0) = b + e`).
+fn flat_start<T: Real>(pr: &Projected<T>) -> Option<(T, T)> {
+    let ([fa, fb, _, fd, fe, ff], [ga, gb, _, gd, ge, gf]) = (pr.f.k, pr.g.k);
+    let (l00, l01, l10, l11) = (fa + fd, fb + fe, ga + gd, gb + ge);
+    let det = l00 * l11 - l01 * l10;
+    if det == T::ZERO || !det.is_finite() {
+        return None;
+    }
+    let idet = T::ONE / det;
+    Some(((l01 * gf - l11 * ff) * idet, (l10 * ff - l00 * gf) * idet))
+}
+
+/// Newton on `(F, G) = 0` in the plane of `(u, v)` from `(u, v)`: the last iterate and whether
+/// it converged, or `None` on a singular Jacobian or a non-finite step.
+fn newton_plane<T: Real>(pr: &Projected<T>, mut u: T, mut v: T) -> Option<(T, T, bool)> {
+    let ([fa, fb, fc, fd, fe, ff], [ga, gb, gc, gd, ge, gf]) = (pr.f.k, pr.g.k);
+    for _ in 0..8 {
+        let r0 = ((fa * u + fc * v + fd) * u + (fb * v + fe) * v) + ff;
+        let r1 = ((ga * u + gc * v + gd) * u + (gb * v + ge) * v) + gf;
+        let j = jacobian(pr, u, v);
+        let det = j[0] * j[3] - j[1] * j[2];
+        if det == T::ZERO || !det.is_finite() {
+            return None;
+        }
+        let idet = T::ONE / det;
+        let du = (j[1] * r1 - j[3] * r0) * idet;
+        let dv = (j[2] * r0 - j[0] * r1) * idet;
+        if !(du.is_finite() && dv.is_finite()) {
+            return None;
+        }
+        u = u + du;
+        v = v + dv;
+        if du.abs().max(dv.abs()) <= T::gamma(64) {
+            return Some((u, v, true));
+        }
+    }
+    Some((u, v, false))
+}

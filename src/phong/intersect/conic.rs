@@ -1,0 +1,191 @@
+//! Conics: the ray's two planes, the patch projected into a pair of conics, the pencil's
+//! degenerate members split into lines, and line–conic intersection.
+
+use super::poly::solve_quadratic;
+use crate::phong::patch::Patch;
+use crate::phong::real::{Real, V3};
+
+/// A symmetric 3×3 conic matrix `[[a, c/2, d/2], [c/2, b, e/2], [d/2, e/2, f]]` for
+/// `a u² + b v² + c uv + d u + e v + f`, stored as the 6 polynomial coefficients.
+#[derive(Clone, Copy, Debug)]
+pub(super) struct Conic<T> {
+    pub(super) k: [T; 6], // a, b, c, d, e, f
+}
+
+impl<T: Real> Conic<T> {
+    pub(super) fn mat(&self) -> [[T; 3]; 3] {
+        let h = T::from_f64(0.5);
+        let [a, b, c, d, e, f] = self.k;
+        [[a, c * h, d * h], [c * h, b, e * h], [d * h, e * h, f]]
+    }
+    pub(super) fn norm(&self) -> T {
+        self.k.iter().fold(T::ZERO, |m, x| m.max(x.abs()))
+    }
+    pub(super) fn at(&self, u: T, v: T) -> T {
+        let [a, b, c, d, e, f] = self.k;
+        a * u * u + b * v * v + c * u * v + d * u + e * v + f
+    }
+}
+
+pub(super) fn det3<T: Real>(m: &[[T; 3]; 3]) -> T {
+    m[0][0] * (m[1][1] * m[2][2] - m[1][2] * m[2][1]) - m[0][1] * (m[1][0] * m[2][2] - m[1][2] * m[2][0])
+        + m[0][2] * (m[1][0] * m[2][1] - m[1][1] * m[2][0])
+}
+
+pub(super) fn adj3<T: Real>(m: &[[T; 3]; 3]) -> [[T; 3]; 3] {
+    let c = |r0: usize, r1: usize, c0: usize, c1: usize| m[r0][c0] * m[r1][c1] - m[r0][c1] * m[r1][c0];
+    // adj = transpose of the cofactor matrix.
+    [
+        [c(1, 2, 1, 2), -c(0, 2, 1, 2), c(0, 1, 1, 2)],
+        [-c(1, 2, 0, 2), c(0, 2, 0, 2), -c(0, 1, 0, 2)],
+        [c(1, 2, 0, 1), -c(0, 2, 0, 1), c(0, 1, 0, 1)],
+    ]
+}
+
+pub(super) fn trace_prod<T: Real>(a: &[[T; 3]; 3], b: &[[T; 3]; 3]) -> T {
+    let mut s = T::ZERO;
+    for i in 0..3 {
+        for j in 0..3 {
+            s = s + a[i][j] * b[j][i];
+        }
+    }
+    s
+}
+
+/// Why a degenerate member gave no real lines.
+#[derive(Clone, Copy, Debug, PartialEq, Eq)]
+pub(super) enum NoLines {
+    /// Clearly a pair of complex lines (a real point): in exact arithmetic too.
+    PointLike,
+    /// Within rounding of a real line pair, or unusable (zero): another precision may differ.
+    Unsure,
+}
+
+/// Split a degenerate conic into its two lines `(l0, l1, l2)`: `l0 u + l1 v + l2 = 0`.
+/// A point-like conic (a pair of complex lines) has none.
+pub(super) fn split_degenerate<T: Real>(h: &[[T; 3]; 3]) -> Result<[[T; 3]; 2], NoLines> {
+    let hn = h.iter().flatten().fold(T::ZERO, |m, x| m.max(x.abs()));
+    if hn == T::ZERO {
+        return Err(NoLines::Unsure);
+    }
+    let b = adj3(h);
+    let bn = b.iter().flatten().fold(T::ZERO, |m, x| m.max(x.abs()));
+    // Rank 1 (a double line): the adjugate vanishes up to rounding.
+    if bn <= T::gamma(32) * hn * hn {
+        let i = (0..3)
+            .max_by(|&i, &j| {
+                let ni = h[i][0].abs() + h[i][1].abs() + h[i][2].abs();
+                let nj = h[j][0].abs() + h[j][1].abs() + h[j][2].abs();
+                ni.partial_cmp(&nj).unwrap_or(std::cmp::Ordering::Equal)
+            })
+            .unwrap_or(0);
+        return Ok([h[i], h[i]]);
+    }
+    // Rank 2: adj(H) = -p pᵀ for two real lines meeting at p (Richter-Gebert, §11.3).
+    let i = (0..3)
+        .min_by(|&i, &j| b[i][i].partial_cmp(&b[j][j]).unwrap_or(std::cmp::Ordering::Equal))
+        .unwrap_or(0);
+    if b[i][i] > T::ZERO {
+        // Point-like. The entries of H carry the error of the pencil root (up to the square
+        // root of the precision at a double root) times |H|, so a 2×2 minor of H is uncertain
+        // by about sqrt(γ(64)) |H|²; above that it is point-like in any precision.
+        let unsure = T::gamma(64).sqrt() * hn * hn;
+        return Err(if b[i][i] > unsure { NoLines::PointLike } else { NoLines::Unsure });
+    }
+    let beta = (-b[i][i]).max(T::ZERO).sqrt();
+    if beta == T::ZERO || !beta.is_finite() {
+        return Err(NoLines::Unsure);
+    }
+    let p = [b[0][i] / beta, b[1][i] / beta, b[2][i] / beta];
+    let c = [
+        [h[0][0], h[0][1] + p[2], h[0][2] - p[1]],
+        [h[1][0] - p[2], h[1][1], h[1][2] + p[0]],
+        [h[2][0] + p[1], h[2][1] - p[0], h[2][2]],
+    ];
+    let (mut bi, mut bj, mut bm) = (0, 0, T::ZERO);
+    for (r, row) in c.iter().enumerate() {
+        for (s, x) in row.iter().enumerate() {
+            if x.abs() > bm {
+                bm = x.abs();
+                bi = r;
+                bj = s;
+            }
+        }
+    }
+    if bm == T::ZERO {
+        return Err(NoLines::Unsure);
+    }
+    Ok([c[bi], [c[0][bj], c[1][bj], c[2][bj]]])
+}
+
+/// Intersect the line `l` with the conic `k`: up to 2 points `(u, v)`, and whether the answer
+/// rests on a discriminant within rounding of zero (near tangency).
+pub(super) fn line_conic<T: Real>(l: [T; 3], k: &Conic<T>) -> ([(T, T); 2], usize, bool) {
+    let z = T::ZERO;
+    let ll = l[0] * l[0] + l[1] * l[1];
+    if !(ll > z) || !ll.is_finite() {
+        return ([(z, z); 2], 0, false); // the line at infinity
+    }
+    let inv = T::ONE / ll.sqrt();
+    let (n0, n1, n2) = (l[0] * inv, l[1] * inv, l[2] * inv);
+    let (qx, qy) = (-n2 * n0, -n2 * n1);
+    let (rx, ry) = (-n1, n0);
+    let [a, b, c, d, e, _] = k.k;
+    let two = T::ONE + T::ONE;
+    let s2 = a * rx * rx + b * ry * ry + c * rx * ry;
+    let s1 = two * a * qx * rx + two * b * qy * ry + c * (qx * ry + qy * rx) + d * rx + e * ry;
+    let s0 = k.at(qx, qy);
+    let (mut r, mut n) = solve_quadratic(s2, s1, s0);
+    let mut near_tangent = false;
+    if n == 0 && s2 != z {
+        // Near tangency the discriminant's sign is lost in the rounding of everything upstream
+        // (pencil root, line factors, each carrying up to the square root of the precision near
+        // a double root, squared again in the discriminant): offer the parabola's vertex when
+        // the discriminant is within γ(8)^¼ of the terms' size, and mark the answer ambiguous so
+        // that a miss is decided again in f64. The caller's residual gate and Newton polish keep
+        // the vertex only if it is a real (double) root.
+        let disc = s1 * s1 - T::from_f64(4.0) * s2 * s0;
+        if disc > -T::gamma(8).sqrt().sqrt() * (s1 * s1 + (T::from_f64(4.0) * s2 * s0).abs()) {
+            r[0] = -s1 / (s2 + s2);
+            n = 1;
+            near_tangent = true;
+        }
+    }
+    let mut out = [(z, z); 2];
+    for i in 0..n {
+        out[i] = (qx + r[i] * rx, qy + r[i] * ry);
+    }
+    (out, n, near_tangent)
+}
+
+/// A unit vector pair `(n1, n2)` orthogonal to `d` and to each other (Duff et al. 2017).
+#[inline(always)]
+pub(super) fn planes_for<T: Real>(d: V3<T>) -> Option<(V3<T>, V3<T>)> {
+    let d = d.normalized()?;
+    let sign = T::ONE.copysign(d.z);
+    let a = -T::ONE / (sign + d.z);
+    let b = d.x * d.y * a;
+    Some((
+        V3::new(T::ONE + sign * d.x * d.x * a, sign * b, -sign * d.x),
+        V3::new(b, sign + d.y * d.y * a, -d.y),
+    ))
+}
+
+/// The patch seen along the ray: `F(u,v) = n1 · (P(u,v) - o)`, `G(u,v) = n2 · (P(u,v) - o)`,
+/// with `n1, n2` the ray's two planes. The ray meets the surface exactly where `F = G = 0`.
+/// Both solvers start from these 12 coefficients, computed once per ray and patch.
+#[derive(Clone, Copy, Debug)]
+pub(super) struct Projected<T> {
+    pub(super) f: Conic<T>,
+    pub(super) g: Conic<T>,
+}
+
+#[inline(always)]
+pub(super) fn project<T: Real>(p: &Patch<T>, o: V3<T>, d: V3<T>) -> Option<Projected<T>> {
+    let (n1, n2) = planes_for(d)?;
+    let f0 = p.f - o;
+    Some(Projected {
+        f: Conic { k: [n1.dot(p.a), n1.dot(p.b), n1.dot(p.c), n1.dot(p.d), n1.dot(p.e), n1.dot(f0)] },
+        g: Conic { k: [n2.dot(p.a), n2.dot(p.b), n2.dot(p.c), n2.dot(p.d), n2.dot(p.e), n2.dot(f0)] },
+    })
+}
