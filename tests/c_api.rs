@@ -12,24 +12,7 @@ mod common;
 #[test]
 fn c_program_mixes_triangles_phong_and_instances() {
     let (_dir, exe) = common::compile_c(&common::root().join("tests/c/mixed_scene.c"), "mixed_scene");
-
-    let run = Command::new(&exe).output().unwrap();
-    let stdout = String::from_utf8_lossy(&run.stdout);
-    assert!(run.status.success(), "C program failed:\n{stdout}\n{}", String::from_utf8_lossy(&run.stderr));
-    assert!(stdout.starts_with("ok "), "{stdout}");
-
-    if Command::new("valgrind").arg("--version").output().is_err() {
-        println!("skipped valgrind: not installed");
-        return;
-    }
-    let vg = Command::new("valgrind")
-        .args(["--leak-check=full", "--errors-for-leak-kinds=definite", "--error-exitcode=9", "--quiet"])
-        .arg(&exe)
-        .output()
-        .unwrap();
-    let err = String::from_utf8_lossy(&vg.stderr);
-    assert!(vg.status.success(), "valgrind reports errors:\n{err}");
-    assert!(String::from_utf8_lossy(&vg.stdout).starts_with("ok "));
+    common::run_c(&exe);
 }
 
 /// benches/c/user_floor.c (the user-geometry floor in plain C, run by scripts/c-floor.sh) still
@@ -74,18 +57,5 @@ fn c_user_floor_matches_native_triangles() {
 #[test]
 fn c_attach_with_callers_pending_device_error_succeeds() {
     let (_dir, exe) = common::compile_c(&common::root().join("tests/c/pending_error.c"), "pending_error");
-    let run = Command::new(&exe).output().unwrap();
-    let stdout = String::from_utf8_lossy(&run.stdout);
-    assert!(run.status.success(), "C program failed:\n{stdout}\n{}", String::from_utf8_lossy(&run.stderr));
-    assert!(stdout.starts_with("ok "), "{stdout}");
-    if Command::new("valgrind").arg("--version").output().is_err() {
-        println!("skipped valgrind: not installed");
-        return;
-    }
-    let vg = Command::new("valgrind")
-        .args(["--leak-check=full", "--errors-for-leak-kinds=definite", "--error-exitcode=9", "--quiet"])
-        .arg(&exe)
-        .output()
-        .unwrap();
-    assert!(vg.status.success(), "valgrind reports errors:\n{}", String::from_utf8_lossy(&vg.stderr));
+    common::run_c(&exe);
 }

@@ -1,5 +1,7 @@
 //! The `phongrt` command: render, info, accuracy; every bad input a one-line error and a
 //! non-zero exit, never a panic.
+mod common;
+
 use assert_cmd::Command;
 use predicates::prelude::*;
 
@@ -189,11 +191,7 @@ fn accuracy_report_prints_a_table() {
 
 #[test]
 fn every_corpus_model_renders_or_is_refused() {
-    let corpus = std::path::Path::new(env!("CARGO_MANIFEST_DIR")).join("../shared/corpus");
-    if !corpus.is_dir() {
-        println!("skipped: ../shared/corpus is absent");
-        return;
-    }
+    let Some(corpus) = common::corpus() else { return };
     let dir = tempfile::tempdir().unwrap();
     for entry in std::fs::read_dir(&corpus).unwrap() {
         let d = entry.unwrap().path();

@@ -1,5 +1,7 @@
 //! Hard edges stay closed: meshes with split normals (a box, a capped cylinder, corpus models)
 //! rendered as Phong patches leak no ray, from inside or aimed at crease edges from outside.
+mod common;
+
 use glam::Vec3;
 use phongrt::embree::{Device, PhongMesh, Ray, Scene, UserGeometryOptions};
 use phongrt::phong::accuracy::SplitMix;
@@ -126,11 +128,7 @@ fn rays_aimed_at_crease_edges_hit() {
 
 #[test]
 fn corpus_closed_models_leak_nothing() {
-    let corpus = std::path::Path::new(env!("CARGO_MANIFEST_DIR")).join("../shared/corpus");
-    if !corpus.is_dir() {
-        println!("skipped: ../shared/corpus is absent");
-        return;
-    }
+    let Some(corpus) = common::corpus() else { return };
     let device = Device::new().unwrap();
     // sphere_smooth: quads + triangles with file normals, closed; its centre is inside.
     let s =

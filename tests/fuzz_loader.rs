@@ -8,6 +8,8 @@
 //!
 //! `PHONGRT_FUZZ_SEED` and `PHONGRT_FUZZ_CASES` (default 10000 OBJ inputs) change the run; a
 //! failing input is written to target/fuzz-failures/ with its seed and index.
+mod common;
+
 use std::path::{Path, PathBuf};
 use std::sync::atomic::{AtomicBool, AtomicU64, AtomicUsize, Ordering};
 use std::sync::Arc;
@@ -242,7 +244,7 @@ fn mutate(rng: &mut Rng, text: &[u8], what: &mut String) -> Vec<u8> {
 fn inputs(ext: &str) -> Vec<(PathBuf, Vec<u8>)> {
     let root = Path::new(env!("CARGO_MANIFEST_DIR"));
     let mut dirs = vec![root.join("scenes")];
-    for d in [root.join("scenes"), corpus_dir()] {
+    for d in [root.join("scenes"), common::corpus_quiet().unwrap_or_default()] {
         if let Ok(rd) = std::fs::read_dir(&d) {
             dirs.extend(rd.flatten().map(|e| e.path()).filter(|p| p.is_dir()));
         }
@@ -261,18 +263,6 @@ fn inputs(ext: &str) -> Vec<(PathBuf, Vec<u8>)> {
         }
     }
     out
-}
-
-/// `PHONGRT_CORPUS`, else ../shared/corpus beside the repository (or beside its parent, for a
-/// worktree under a directory of worktrees).
-fn corpus_dir() -> PathBuf {
-    let root = Path::new(env!("CARGO_MANIFEST_DIR"));
-    std::env::var_os("PHONGRT_CORPUS")
-        .map(PathBuf::from)
-        .into_iter()
-        .chain([root.join("../shared/corpus"), root.join("../../shared/corpus")])
-        .find(|p| p.is_dir())
-        .unwrap_or_default()
 }
 
 fn env_or(name: &str, default: u64) -> u64 {

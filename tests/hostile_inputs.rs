@@ -22,16 +22,6 @@ fn load_in(dir: &Path, name: &str, text: &str) -> Result<Scene, SceneError> {
 
 const TRI: &str = "v 0 0 0\nv 1 0 0\nv 0 1 0\n";
 
-/// `PHONGRT_CORPUS`, else ../shared/corpus beside the repository (or beside its parent).
-fn corpus() -> Option<PathBuf> {
-    let root = Path::new(env!("CARGO_MANIFEST_DIR"));
-    std::env::var_os("PHONGRT_CORPUS")
-        .map(PathBuf::from)
-        .into_iter()
-        .chain([root.join("../shared/corpus"), root.join("../../shared/corpus")])
-        .find(|p| p.is_dir())
-}
-
 fn phongrt() -> Command {
     Command::new(common::target_dir().join("phongrt"))
 }
@@ -78,7 +68,7 @@ fn mtl_one_value_colour_through_the_cli() {
 // Defect 3: one far-away vertex (used or not) must not weld the rest of the mesh away.
 #[test]
 fn far_away_vertex_does_not_collapse_the_mesh() {
-    let Some(c) = corpus() else { return println!("skipped: ../shared/corpus is absent") };
+    let Some(c) = common::corpus() else { return };
     let text = std::fs::read_to_string(c.join("sphere_smooth/sphere_smooth.obj")).unwrap();
     let base = phongrt::scene::load_obj_text(&text, &c.join("sphere_smooth/x.obj"), &LoadOptions::default())
         .unwrap()

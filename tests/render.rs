@@ -1,6 +1,8 @@
 //! The renderer: silhouette coverage against the analytic projected area, Phong silhouettes
 //! smoother than flat ones, effects that cost zero rays when not called for, determinism
 //! across thread counts, scene-file errors.
+mod common;
+
 use std::path::Path;
 
 use glam::Vec3;
@@ -201,12 +203,7 @@ fn scene_file_errors_name_file_key_and_problem() {
 /// misses once showed 6,760 background pixels of 65,536. Skipped when the corpus is absent.
 #[test]
 fn no_background_inside_the_closed_bunny_at_slivers() {
-    // The project root's ../shared/corpus, or the one beside a worktree's parent folder.
-    let root = Path::new(env!("CARGO_MANIFEST_DIR"));
-    let Some(path) = ["../shared/corpus", "../../shared/corpus"]
-        .iter()
-        .map(|c| root.join(c).join("stanford_bunny_69k/bunny.obj"))
-        .find(|p| p.is_file())
+    let Some(path) = common::corpus().map(|c| c.join("stanford_bunny_69k/bunny.obj")).filter(|p| p.is_file())
     else {
         println!("skipped: ../shared/corpus/stanford_bunny_69k/bunny.obj is absent");
         return;

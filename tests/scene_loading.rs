@@ -1,6 +1,8 @@
 //! OBJ loading: every bad-input class gives a one-line error naming the file (and line), or a
 //! warning with counts; triangulation, smoothing groups, crease angles, welding, edge classes;
 //! and every model of ../shared/corpus loads or is refused with a clear reason.
+mod common;
+
 use std::path::{Path, PathBuf};
 
 use glam::Vec3;
@@ -241,13 +243,7 @@ fn computed_normals_of_a_sphere_approximate_the_analytic_ones() {
 }
 
 fn corpus() -> Option<PathBuf> {
-    let c = Path::new(env!("CARGO_MANIFEST_DIR")).join("../shared/corpus");
-    if c.is_dir() {
-        Some(c)
-    } else {
-        println!("skipped: ../shared/corpus is absent");
-        None
-    }
+    common::corpus()
 }
 
 #[test]

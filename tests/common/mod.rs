@@ -19,17 +19,11 @@ pub fn target_dir() -> PathBuf {
 /// The third-party model corpus (`../shared/corpus` beside the checkout, or `PHONGRT_CORPUS`), or
 /// `None` with a message when it is absent (a user's clone has none).
 pub fn corpus() -> Option<PathBuf> {
-    let candidates = std::env::var_os("PHONGRT_CORPUS")
-        .map(PathBuf::from)
-        .into_iter()
-        .chain([root().join("../shared/corpus"), root().join("../../shared/corpus")]);
-    for c in candidates {
-        if c.is_dir() {
-            return Some(c);
-        }
+    let c = corpus_quiet();
+    if c.is_none() {
+        println!("skipped: ../shared/corpus is absent");
     }
-    println!("skipped: ../shared/corpus is absent");
-    None
+    c
 }
 
 /// Compile the C program `source` against include/phongrt.h and the workspace's libphongrt.so
@@ -69,4 +63,33 @@ pub fn compile_c(source: &Path, name: &str) -> (tempfile::TempDir, PathBuf) {
         String::from_utf8_lossy(&st.stderr)
     );
     (out, exe)
+}
+
+/// Run the C program `exe`, which must exit 0 and print a line starting with "ok"; then again
+/// under valgrind (memcheck, definite leaks are errors) when valgrind is installed.
+pub fn run_c(exe: &Path) {
+    let run = Command::new(exe).output().unwrap();
+    let stdout = String::from_utf8_lossy(&run.stdout);
+    assert!(run.status.success(), "C program failed:\n{stdout}\n{}", String::from_utf8_lossy(&run.stderr));
+    assert!(stdout.starts_with("ok "), "{stdout}");
+    if Command::new("valgrind").arg("--version").output().is_err() {
+        println!("skipped valgrind: not installed");
+        return;
+    }
+    let vg = Command::new("valgrind")
+        .args(["--leak-check=full", "--errors-for-leak-kinds=definite", "--error-exitcode=9", "--quiet"])
+        .arg(exe)
+        .output()
+        .unwrap();
+    assert!(vg.status.success(), "valgrind reports errors:\n{}", String::from_utf8_lossy(&vg.stderr));
+    assert!(String::from_utf8_lossy(&vg.stdout).starts_with("ok "));
+}
+
+/// The corpus without the message: `None` when absent.
+pub fn corpus_quiet() -> Option<PathBuf> {
+    std::env::var_os("PHONGRT_CORPUS")
+        .map(PathBuf::from)
+        .into_iter()
+        .chain([root().join("../shared/corpus"), root().join("../../shared/corpus")])
+        .find(|c| c.is_dir())
 }
