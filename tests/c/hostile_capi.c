@@ -61,7 +61,7 @@ int main(void) {
     phongrt_mesh_release(empty);
     rtcReleaseDevice(device);
     if (failures == 0) {
-        printf("ok\n");
+        printf("ok hostile calls\n");
         return 0;
     }
     return 1;
