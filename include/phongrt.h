@@ -77,6 +77,9 @@ typedef struct phongrt_mesh phongrt_mesh;
  * geometry on the scene's device, attach it to `scene` and return its geomID (the scene must then be
  * committed as usual). `*mesh_out` receives the mesh, for the shading helpers and for
  * phongrt_mesh_release. Returns RTC_INVALID_GEOMETRY_ID on error; phongrt_last_error() says why.
+ * Embree offers no query for whether a scene is committed or instanced elsewhere, so neither is
+ * refused here: attaching to a committed scene is legal in Embree and takes effect at the next
+ * rtcCommitScene (of it, and of every scene instancing it).
  *
  * The mesh is watertight: positions within 1e-6 of the mesh's bounding-box diagonal are welded
  * (onto the first of them), so triangles sharing a position share an edge whatever the indexing (a
