@@ -265,15 +265,22 @@ pub struct StitchArgs {
     pub tiles: Vec<PathBuf>,
 }
 
-/// Exit codes, shown at the end of `--help`.
-pub const EXIT_CODES: &str = "\
-Exit status:
+/// The exit codes' text, one home for `--help` and `render --help`.
+macro_rules! exit_codes {
+    () => {
+        "Exit status:
   0  success
   1  bad input: an OBJ, MTL or scene file that cannot be read or is invalid, or an output that
      cannot be written
-  2  bad usage: an unknown flag, or a flag value that is out of range or malformed";
+  2  bad usage: an unknown flag, or a flag value that is out of range or malformed"
+    };
+}
 
-const RENDER_EXAMPLES: &str = "\
+/// Exit codes, shown at the end of `--help`.
+pub const EXIT_CODES: &str = exit_codes!();
+
+const RENDER_EXAMPLES: &str = concat!(
+    "\
 Examples:
   phongrt render scenes/sphere_lowpoly.obj -o sphere.png
   phongrt render scenes/sphere_lowpoly.obj --compare -o compare.png
@@ -282,11 +289,9 @@ Examples:
   phongrt render scenes/sphere_lowpoly.obj --frames 120 --frame 7 -o orbit.png  # writes orbit_0007.png
   phongrt render scenes/sphere_lowpoly.obj --stats json -q -o - > out.png
 
-Exit status:
-  0  success
-  1  bad input: an OBJ, MTL or scene file that cannot be read or is invalid, or an output that
-     cannot be written
-  2  bad usage: an unknown flag, or a flag value that is out of range or malformed";
+",
+    exit_codes!()
+);
 
 const STITCH_EXAMPLES: &str = "\
 Examples:
