@@ -738,19 +738,9 @@ pub fn uv_sphere(segments: u32, rings: u32, radius: f32) -> Mesh {
         }
         indices.push([ring(rings - 1, s), last, ring(rings - 1, s + 1)]);
     }
-    let position_ids = (0..positions.len() as u32).collect::<Vec<_>>();
-    let edge_kinds = classify_edges(&indices, &position_ids);
-    Mesh {
-        name: "sphere".into(),
-        positions,
-        normals,
-        indices,
-        material: None,
-        position_ids,
-        edge_kinds,
-        normals_source: NormalsSource::Computed,
-        corner_uvs: Vec::new(),
-    }
+    let mut mesh = Mesh::from_triangles("sphere", positions, normals, indices);
+    mesh.normals_source = NormalsSource::Computed;
+    mesh
 }
 
 /// Write a mesh as OBJ (positions, normals, `f v//vn`), 7 significant digits.
