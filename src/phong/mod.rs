@@ -27,6 +27,8 @@ pub mod patch;
 pub mod real;
 pub mod reference;
 
-pub use intersect::{intersect, solve_cubic, solve_quadratic, Method, PatchHit};
+pub use intersect::{
+    intersect, intersect_traced, solve_cubic, solve_quadratic, Method, PatchHit, TestOutcome,
+};
 pub use patch::{adapt_shading_normal, control_points, Patch, ShadingNormal};
 pub use real::{Real, V3};

@@ -382,6 +382,31 @@ impl Default for BenchOptions {
     }
 }
 
+/// The bench's camera, framed on `m`, and its primary rays through pixel centres (row by row).
+pub fn primary_rays(
+    name: &str,
+    m: &Mesh,
+    width: u32,
+    height: u32,
+) -> Result<(crate::render::CameraFrame, Vec<Ray>), BenchError> {
+    let (lo, hi) = m
+        .positions
+        .iter()
+        .fold((Vec3::splat(f32::MAX), Vec3::splat(f32::MIN)), |(a, b), p| (a.min(*p), b.max(*p)));
+    let frame = Camera::frame_bounds(lo, hi, width as f32 / height as f32)
+        .frame(width as f32 / height as f32)
+        .ok_or_else(|| BenchError::Camera(name.to_string()))?;
+    let rays = (0..width * height)
+        .map(|i| {
+            Ray::new(
+                frame.eye,
+                frame.direction((i % width) as f32 + 0.5, (i / width) as f32 + 0.5, width, height),
+            )
+        })
+        .collect();
+    Ok((frame, rays))
+}
+
 /// Run `methods` on `m` with primary rays through an `opts.width`×`opts.height` camera framed on it.
 pub fn bench_scene(
     name: &str,
@@ -392,21 +417,7 @@ pub fn bench_scene(
 ) -> Result<Vec<BenchRow>, BenchError> {
     let BenchOptions { width, height, max_pretess_tris, robust } = *opts;
     let device = Device::new()?;
-    let (lo, hi) = m
-        .positions
-        .iter()
-        .fold((Vec3::splat(f32::MAX), Vec3::splat(f32::MIN)), |(a, b), p| (a.min(*p), b.max(*p)));
-    let frame = Camera::frame_bounds(lo, hi, width as f32 / height as f32)
-        .frame(width as f32 / height as f32)
-        .ok_or_else(|| BenchError::Camera(name.to_string()))?;
-    let rays: Vec<Ray> = (0..width * height)
-        .map(|i| {
-            Ray::new(
-                frame.eye,
-                frame.direction((i % width) as f32 + 0.5, (i / width) as f32 + 0.5, width, height),
-            )
-        })
-        .collect();
+    let (frame, rays) = primary_rays(name, m, width, height)?;
     progress(&format!("{name}: reference (direct f64)"));
     let (refscene, _) = build(&device, m, BenchMethod::DirectF64, robust)?;
     let reference = depth(&refscene, &rays, true);

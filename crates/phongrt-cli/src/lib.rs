@@ -7,4 +7,5 @@
 #![allow(clippy::neg_cmp_op_on_partial_ord, clippy::nonminimal_bool)]
 
 pub mod bench;
+pub mod profile;
 pub mod render;

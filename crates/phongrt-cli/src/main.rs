@@ -1033,12 +1033,18 @@ fn bench_cmd(args: cli::BenchArgs) -> anyhow::Result<()> {
             bar.inc(1);
         })?);
     }
+    let mut profiles = Vec::new();
+    for (name, m) in &scenes {
+        bar.set_message(format!("{name}: profile"));
+        profiles.push(phongrt_cli::profile::profile_scene(name, m, args.size, args.size)?);
+    }
     bar.finish_and_clear();
     let mem = mem_total();
     let md = format!(
-        "{}\nPre-tessellation that matches direct Phong's silhouette ({ram} GB of RAM here):\n\n{}\n\
+        "{}\n{}\nPre-tessellation that matches direct Phong's silhouette ({ram} GB of RAM here):\n\n{}\n\
          Pre-tessellation that matches direct Phong's hit distances (median relative error, {ram} GB of RAM here):\n\n{}",
         to_markdown(&rows),
+        phongrt_cli::profile::to_markdown(&profiles, &rows),
         equal_silhouette_summary(&rows, mem),
         equal_depth_summary(&rows, mem),
         ram = mem.map_or("?".to_string(), |m| format!("{:.1}", m as f64 / 1e9)),

@@ -56,6 +56,56 @@ pub enum Method {
     Certified,
 }
 
+/// Which path a ray–patch test took: what [`intersect_traced`] reports, for profiling.
+#[derive(Clone, Copy, Debug, PartialEq, Eq, Hash)]
+pub enum TestOutcome {
+    /// Turned away before any solve: a degenerate patch, a NaN interval, a non-finite or zero ray.
+    BadInput,
+    /// Rejected by the patch's local bounds or its prism (the cheap hull test).
+    HullReject,
+    /// The certified Newton step proved a hit.
+    CertifiedHit,
+    /// The certified Newton step proved a miss.
+    CertifiedMiss,
+    /// The certificate failed (or the method is not certified): the analytic method decided,
+    /// with a hit.
+    AnalyticHit,
+    /// As [`TestOutcome::AnalyticHit`], with a miss.
+    AnalyticMiss,
+    /// The f32 solve could not decide: decided again in f64.
+    F64Retry,
+    /// Newton–Raphson ([`Method::Newton`]) decided.
+    Newton,
+}
+
+impl TestOutcome {
+    /// Every outcome, in the order of the profile's columns.
+    pub const ALL: [TestOutcome; 8] = [
+        TestOutcome::BadInput,
+        TestOutcome::HullReject,
+        TestOutcome::CertifiedHit,
+        TestOutcome::CertifiedMiss,
+        TestOutcome::AnalyticHit,
+        TestOutcome::AnalyticMiss,
+        TestOutcome::F64Retry,
+        TestOutcome::Newton,
+    ];
+
+    /// A short name for tables.
+    pub fn name(self) -> &'static str {
+        match self {
+            TestOutcome::BadInput => "bad input",
+            TestOutcome::HullReject => "hull reject",
+            TestOutcome::CertifiedHit => "certified hit",
+            TestOutcome::CertifiedMiss => "certified miss",
+            TestOutcome::AnalyticHit => "analytic hit",
+            TestOutcome::AnalyticMiss => "analytic miss",
+            TestOutcome::F64Retry => "f64 retry",
+            TestOutcome::Newton => "newton",
+        }
+    }
+}
+
 /// The nearest hit of `org + t dir`, `t` in the open interval `(tmin, tmax)`, by `method`.
 /// Never NaN: bad input (non-finite, zero direction, degenerate patch) gives `None`.
 #[inline]
@@ -67,24 +117,40 @@ pub fn intersect<T: Real>(
     tmax: T,
     method: Method,
 ) -> Option<PatchHit<T>> {
+    intersect_traced(p, org, dir, tmin, tmax, method).0
+}
+
+/// [`intersect`], with the path the test took (for profiling: the hit is the same).
+#[inline]
+pub fn intersect_traced<T: Real>(
+    p: &Patch<T>,
+    org: V3<T>,
+    dir: V3<T>,
+    tmin: T,
+    tmax: T,
+    method: Method,
+) -> (Option<PatchHit<T>>, TestOutcome) {
     if p.degenerate || tmin.to_f64().is_nan() || tmax.to_f64().is_nan() {
-        return None;
+        return (None, TestOutcome::BadInput);
     }
     // To the local frame (t is unchanged). A non-finite ray stays non-finite there (the frame's
     // centre and scale are finite), so one test covers both.
     let o = (org - p.center) * p.inv_scale;
     let d = dir * p.inv_scale;
     if !(o.is_finite() && d.is_finite()) || d.max_abs() == T::ZERO {
-        return None;
+        return (None, TestOutcome::BadInput);
     }
     if !hits_hull(p, o, d, tmin, tmax) {
-        return None;
+        return (None, TestOutcome::HullReject);
     }
     match method {
-        Method::Analytic => analytic_local(p, o, d, tmin, tmax, false).0,
+        Method::Analytic => {
+            let hit = analytic_local(p, o, d, tmin, tmax, false).0;
+            (hit, if hit.is_some() { TestOutcome::AnalyticHit } else { TestOutcome::AnalyticMiss })
+        }
         Method::AnalyticPolished => polished(p, (org, dir), o, d, tmin, tmax, false),
         Method::Certified => polished(p, (org, dir), o, d, tmin, tmax, true),
-        Method::Newton => newton_local(p, o, d, tmin, tmax, domain_tolerance::<T>()),
+        Method::Newton => (newton_local(p, o, d, tmin, tmax, domain_tolerance::<T>()), TestOutcome::Newton),
     }
 }
 
@@ -98,17 +164,19 @@ fn polished<T: Real>(
     tmin: T,
     tmax: T,
     certify: bool,
-) -> Option<PatchHit<T>> {
+) -> (Option<PatchHit<T>>, TestOutcome) {
     let (org, dir) = world;
-    let pr = project(p, o, d)?;
+    let Some(pr) = project(p, o, d) else { return (None, TestOutcome::BadInput) };
     if certify {
         if let Some(answer) = certified_newton(p, o, d, &pr, tmin, tmax) {
             // A proven miss is proven only to the f32 parameter error, which a sliver seen from
             // afar makes wider than the domain's tolerance band.
             if answer.is_none() && sliver_from_afar(p, o) {
-                return decide_in_f64(p, org, dir, tmin, tmax);
+                return (decide_in_f64(p, org, dir, tmin, tmax), TestOutcome::F64Retry);
             }
-            return answer;
+            let outcome =
+                if answer.is_some() { TestOutcome::CertifiedHit } else { TestOutcome::CertifiedMiss };
+            return (answer, outcome);
         }
     }
     let (hit, ambiguous) = analytic_projected(p, o, d, &pr, tmin, tmax, true);
@@ -118,9 +186,9 @@ fn polished<T: Real>(
     // common path, f64 only settles the rays it cannot.
     let unsure = (hit.is_none() && (ambiguous.miss || sliver_from_afar(p, o))) || ambiguous.hit;
     if unsure && T::UNIT_ROUNDOFF.to_f64() > 1e-10 {
-        return decide_in_f64(p, org, dir, tmin, tmax);
+        return (decide_in_f64(p, org, dir, tmin, tmax), TestOutcome::F64Retry);
     }
-    hit
+    (hit, if hit.is_some() { TestOutcome::AnalyticHit } else { TestOutcome::AnalyticMiss })
 }
 
 #[cfg(test)]
