@@ -347,7 +347,7 @@ impl UserPrimitives for Panicky {
         }
         Some((Vec3::new(0.0, 0.0, -0.01), Vec3::new(1.0, 1.0, 0.01)))
     }
-    fn intersect(&self, _prim: u32, org: Vec3, dir: Vec3, tnear: f32, tfar: f32) -> Option<PrimHit> {
+    fn intersect(&self, prim: u32, org: Vec3, dir: Vec3, tnear: f32, tfar: f32) -> Option<PrimHit> {
         if self.in_intersect {
             panic!("intersect exploded");
         }
@@ -358,6 +358,7 @@ impl UserPrimitives for Panicky {
             u: p.x,
             v: p.y,
             ng: Vec3::Z,
+            prim,
         })
     }
 }
@@ -435,4 +436,100 @@ fn a_panic_in_bounds_makes_commit_fail() {
     );
     assert!(!scene.is_committed());
     assert!(scene.intersect1(Ray::new(Vec3::new(0.2, 0.3, 1.0), -Vec3::Z)).is_none());
+}
+
+/// A Phong sphere with `k` patches per Embree primitive, with `reject_even` as its geometry
+/// filter where `filtered`.
+fn phong_sphere(device: &Device, k: usize, filtered: bool) -> Scene {
+    let m = phongrt::scene::uv_sphere(12, 6, 1.0);
+    let mesh = phongrt::embree::PhongMesh::builder(&m.positions, &m.normals, &m.indices)
+        .straight_edges(&m.straight_edges())
+        .cluster_size(k)
+        .build()
+        .unwrap();
+    let mut scene = Scene::new(device).unwrap();
+    let id = scene.attach_phong(mesh, UserGeometryOptions::default()).unwrap();
+    if filtered {
+        // SAFETY (test): the geometry is live in an uncommitted scene; setting filters before commit is allowed.
+        unsafe {
+            let g = sys::rtcGetGeometry(scene.raw(), id);
+            sys::rtcSetGeometryIntersectFilterFunction(g, Some(reject_even));
+            sys::rtcSetGeometryOccludedFilterFunction(g, Some(reject_even));
+            sys::rtcCommitGeometry(g);
+        }
+    }
+    scene.commit().unwrap();
+    scene
+}
+
+#[test]
+fn clustered_phong_mesh_gives_the_same_hits_as_one_patch_per_primitive() {
+    let device = Device::new().unwrap();
+    for filtered in [false, true] {
+        let single = phong_sphere(&device, 1, filtered);
+        let clustered = phong_sphere(&device, 8, filtered);
+        let (mut hits, mut ties) = (0, 0);
+        for r in rays(20_000) {
+            let (a, b) = (single.intersect1(r), clustered.intersect1(r));
+            assert_eq!(a.is_some(), b.is_some(), "{r:?}");
+            if let (Some(a), Some(b)) = (a, b) {
+                hits += 1;
+                assert_eq!(a.t, b.t, "{r:?}");
+                assert!(!filtered || b.prim_id % 2 == 1, "a rejected patch reported");
+                if a.prim_id == b.prim_id {
+                    assert_eq!((a.u, a.v, a.ng), (b.u, b.v, b.ng));
+                } else {
+                    ties += 1; // the same t on two patches: a shared edge
+                }
+            }
+            assert_eq!(single.occluded1(r), clustered.occluded1(r), "{r:?}");
+        }
+        assert!(hits > 10_000, "too few hits: {hits}");
+        assert!(ties * 1000 <= hits, "{ties} ties in {hits} hits");
+    }
+}
+
+#[test]
+fn clustered_phong_mesh_answers_packets_as_single_rays() {
+    let device = Device::new().unwrap();
+    let (single, clustered) = (phong_sphere(&device, 1, false), phong_sphere(&device, 8, false));
+    packet_check::<4>(&single, &clustered);
+    packet_check::<8>(&single, &clustered);
+    packet_check::<16>(&single, &clustered);
+}
+
+#[test]
+fn clusters_hold_every_patch_that_can_be_hit_once() {
+    let m = phongrt::scene::uv_sphere(24, 12, 1.0);
+    let mesh = phongrt::embree::PhongMesh::builder(&m.positions, &m.normals, &m.indices)
+        .cluster_size(8)
+        .build()
+        .unwrap();
+    let mut seen = vec![0u32; m.indices.len()];
+    for c in mesh.clusters() {
+        assert!(!c.members().is_empty() && c.members().len() <= 8);
+        let (lo, hi) = c.bounds();
+        for &t in c.members() {
+            seen[t as usize] += 1;
+            let (plo, phi) = mesh.patch_bounds(t).unwrap();
+            assert!(lo.cmple(plo).all() && phi.cmple(hi).all(), "patch {t} outside its cluster's bounds");
+        }
+    }
+    for (t, &n) in seen.iter().enumerate() {
+        let expected = u32::from(!mesh.patches()[t].degenerate());
+        assert_eq!(n, expected, "patch {t} in {n} clusters");
+    }
+    // Neighbours: most clusters are full.
+    let full = mesh.clusters().iter().filter(|c| c.members().len() == 8).count();
+    assert!(full * 10 >= mesh.clusters().len() * 9, "{full} of {} clusters full", mesh.clusters().len());
+}
+
+#[test]
+fn a_cluster_size_outside_1_to_8_is_refused() {
+    let (p, i) = octahedron();
+    let n: Vec<Vec3> = p.iter().map(|v| v.normalize()).collect();
+    for k in [0, 9] {
+        let e = phongrt::embree::PhongMesh::builder(&p, &n, &i).cluster_size(k).build().unwrap_err();
+        assert_eq!(e.to_string(), format!("cluster size {k} is not in 1..=8"));
+    }
 }

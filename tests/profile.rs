@@ -7,7 +7,7 @@ use phongrt_cli::profile::profile_scene;
 #[test]
 fn profile_counts_every_patch_test_once_by_outcome() {
     let m = phongrt::scene::uv_sphere(12, 6, 1.0);
-    let p = profile_scene("sphere", &m, 48, 48).unwrap();
+    let p = profile_scene("sphere", &m, 48, 48, 1).unwrap();
     assert_eq!(p.rays, 48 * 48);
     assert!(p.tests > p.rays / 4, "{} tests for {} rays", p.tests, p.rays);
     assert_eq!(p.outcomes.iter().map(|o| o.tests).sum::<usize>(), p.tests);

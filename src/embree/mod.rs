@@ -15,4 +15,6 @@ pub use user_geometry::{PrimHit, UserGeometryOptions, UserPrimitives, UserTriang
 #[cfg(feature = "capi")]
 pub mod capi;
 pub mod phong_geometry;
-pub use phong_geometry::{attach_phong_raw, PhongMesh, PhongMeshBuilder, PhongMeshError, RawPhongGeometry};
+pub use phong_geometry::{
+    attach_phong_raw, PatchTest, PhongMesh, PhongMeshBuilder, PhongMeshError, RawPhongGeometry,
+};

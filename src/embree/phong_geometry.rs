@@ -1,6 +1,7 @@
-//! Phong-tessellated meshes as Embree user geometry: one primitive per triangle, bounds and
+//! Phong-tessellated meshes as Embree user geometry: one user primitive per patch (or, opted
+//! into, per cluster of up to 8 neighbouring patches: [`crate::phong::cluster`]), bounds and
 //! intersection by [`crate::phong`], everything else (BVH, traversal, instancing, filters,
-//! masks, packets) by Embree.
+//! masks, packets) by Embree. Hits report the triangle's index as primID either way.
 
 use std::sync::Arc;
 
@@ -9,7 +10,10 @@ use glam::{DVec3, Vec3};
 use super::device::EmbreeError;
 use super::scene::Scene;
 use super::user_geometry::{new_user_geometry, PrimHit, UserData, UserGeometryOptions, UserPrimitives};
-use crate::phong::{intersect, Method, Patch, ShadingNormal, V3};
+use crate::phong::cluster::{group_by_position, hull_entries, Cluster, ClusterHull, CLUSTER_SIZE};
+use crate::phong::{
+    intersect_in_hull_traced, intersect_traced, Method, Patch, ShadingNormal, TestOutcome, V3,
+};
 use crate::sys;
 
 /// Why a Phong mesh was refused. Each displays as one line naming the vertex, triangle or value.
@@ -31,6 +35,8 @@ pub enum PhongMeshError {
     WeldTolerance(f32),
     #[error("{0} triangles: more than a u32 primID can count")]
     TooManyTriangles(usize),
+    #[error("cluster size {0} is not in 1..=8")]
+    ClusterSize(usize),
 }
 
 /// A Phong mesh: patches precomputed per triangle, owned so it outlives the geometry.
@@ -41,8 +47,9 @@ pub enum PhongMeshError {
 #[derive(Clone, Debug)]
 pub struct PhongMesh {
     patches: Vec<Patch<f32>>,
-    /// World-space bounds per patch (precomputed: the bounds callback only copies).
-    bounds: Vec<(Vec3, Vec3)>,
+    /// The clusters of non-degenerate patches that are Embree's user primitives (empty: each
+    /// patch is one).
+    clusters: Vec<Cluster>,
     /// Patches that are never hit (zero area or zero normal), counted for reporting.
     degenerate: usize,
     /// Triangle edges kept straight (each shared edge counted from both sides).
@@ -81,9 +88,20 @@ pub struct PhongMeshBuilder<'a> {
     alpha: f32,
     edges: EdgeRule<'a>,
     method: Method,
+    cluster_size: usize,
 }
 
 impl<'a> PhongMeshBuilder<'a> {
+    /// Patches per Embree primitive, 1 (the default) to 8. Above 1, neighbouring patches are
+    /// grouped and one callback tests a ray against all of a group's prisms at once (8 lanes);
+    /// the answers are the same. `phongrt bench` measures both (`direct-f32`,
+    /// `direct-f32-k8`): on its scenes one patch per primitive is faster, as Embree's own
+    /// 8-wide BVH nodes already cull the patches' bounds before any callback.
+    pub fn cluster_size(mut self, k: usize) -> Self {
+        self.cluster_size = k;
+        self
+    }
+
     /// The shape factor in [0, 1] (0 = flat triangles; 1, the default, = full Phong tessellation).
     pub fn alpha(mut self, alpha: f32) -> Self {
         self.alpha = alpha;
@@ -131,6 +149,9 @@ impl<'a> PhongMeshBuilder<'a> {
         if indices.len() > u32::MAX as usize {
             return Err(PhongMeshError::TooManyTriangles(indices.len()));
         }
+        if !(1..=CLUSTER_SIZE).contains(&self.cluster_size) {
+            return Err(PhongMeshError::ClusterSize(self.cluster_size));
+        }
         match self.edges {
             EdgeRule::Given(s) if s.len() != indices.len() => {
                 return Err(PhongMeshError::EdgeFlagCount(s.len(), indices.len()));
@@ -156,14 +177,15 @@ impl<'a> PhongMeshBuilder<'a> {
             return Err(PhongMeshError::Index { tri: t, index, count: positions.len() });
         }
         // Compute the arrays the patches are built from.
+        let k = self.cluster_size;
         let mesh = match self.edges {
             EdgeRule::Watertight { weld_tolerance } => {
                 let m = crate::mesh::prepare(positions, normals, indices, weld_tolerance);
                 let straight = m.straight_edges();
-                build_patches(&m.positions, &m.normals, &m.indices, self.alpha, Some(&straight))
+                build_patches(&m.positions, &m.normals, &m.indices, self.alpha, Some(&straight), k)
             }
-            EdgeRule::Plain => build_patches(positions, normals, indices, self.alpha, None),
-            EdgeRule::Given(s) => build_patches(positions, normals, indices, self.alpha, Some(s)),
+            EdgeRule::Plain => build_patches(positions, normals, indices, self.alpha, None, k),
+            EdgeRule::Given(s) => build_patches(positions, normals, indices, self.alpha, Some(s), k),
         };
         Ok(PhongMesh { method: self.method, ..mesh })
     }
@@ -176,24 +198,45 @@ fn build_patches(
     indices: &[[u32; 3]],
     alpha: f32,
     straight: Option<&[[bool; 3]]>,
+    cluster_size: usize,
 ) -> PhongMesh {
     // Patches are independent: build them on every core (order kept, so deterministic).
     use rayon::prelude::*;
-    let (patches, bounds): (Vec<Patch<f32>>, Vec<(Vec3, Vec3)>) = indices
+    let patches: Vec<Patch<f32>> = indices
         .par_iter()
         .enumerate()
         .map(|(t, tri)| {
             let p = tri.map(|i| positions[i as usize].as_dvec3());
             let n = tri.map(|i| normals[i as usize].as_dvec3());
             let s = straight.map_or([false; 3], |s| s[t]);
-            let patch: Patch<f32> = Patch::with_straight_edges(p, n, alpha as f64, s);
-            let (lo, hi) = patch.bounds();
-            (patch, (Vec3::from(lo), Vec3::from(hi)))
+            Patch::with_straight_edges(p, n, alpha as f64, s)
         })
-        .unzip();
+        .collect();
+    // Group neighbouring patches (never-hit ones left out) into clusters, if asked to.
+    let clusters = if cluster_size > 1 {
+        let centroids: Vec<V3<f64>> = patches.iter().map(|p| p.center().to_f64()).collect();
+        let groups = group_by_position(&centroids, cluster_size, |t| !patches[t].degenerate());
+        groups.par_iter().map(|g| Cluster::new(&patches, g)).collect()
+    } else {
+        Vec::new()
+    };
     let degenerate = patches.iter().filter(|p| p.degenerate()).count();
     let straight = straight.map_or(0, |s| s.iter().flatten().filter(|&&b| b).count());
-    PhongMesh { patches, bounds, degenerate, straight, method: Method::Certified }
+    PhongMesh { patches, clusters, degenerate, straight, method: Method::Certified }
+}
+
+/// Where the ray enters each member's prism of a cluster (see
+/// [`crate::phong::cluster::hull_entries`]), 8 lanes at once where the CPU has AVX.
+#[inline(always)]
+fn cluster_entries(h: &ClusterHull, org: Vec3, dir: Vec3, tnear: f32, tfar: f32) -> [f32; CLUSTER_SIZE] {
+    let (o, d) = (org.to_array(), dir.to_array());
+    #[cfg(target_arch = "x86_64")]
+    if std::arch::is_x86_feature_detected!("avx") {
+        // SAFETY: `hull_entries_avx` only needs the CPU to have AVX, which was just detected
+        // at run time (it is plain Rust, compiled with AVX enabled).
+        return unsafe { crate::phong::cluster::hull_entries_avx(h, o, d, tnear, tfar) };
+    }
+    hull_entries(h, o, d, tnear, tfar)
 }
 
 impl PhongMesh {
@@ -233,6 +276,7 @@ impl PhongMesh {
             alpha: 1.0,
             edges: EdgeRule::Watertight { weld_tolerance: crate::mesh::WELD_TOLERANCE },
             method: Method::Certified,
+            cluster_size: 1,
         }
     }
 
@@ -264,9 +308,29 @@ impl PhongMesh {
         &self.patches
     }
 
-    /// The world-space bounds the bounds callback reports for patch `prim` (`None` past the end).
+    /// Conservative world-space bounds of patch `prim` (`None` past the end).
     pub fn patch_bounds(&self, prim: u32) -> Option<(Vec3, Vec3)> {
-        self.bounds.get(prim as usize).copied()
+        let (lo, hi) = self.patches.get(prim as usize)?.bounds();
+        Some((lo.into(), hi.into()))
+    }
+
+    /// The clusters Embree sees as its user primitives (each up to 8 neighbouring patches;
+    /// empty for one patch per primitive, the default).
+    pub fn clusters(&self) -> &[Cluster] {
+        &self.clusters
+    }
+
+    /// Where `org + t dir` enters the prism of each member of `cluster` within `(tnear, tfar)`
+    /// (`+inf`: it misses it), as the ray callbacks compute it (`None` past the end).
+    pub fn cluster_entries(
+        &self,
+        cluster: u32,
+        org: Vec3,
+        dir: Vec3,
+        tnear: f32,
+        tfar: f32,
+    ) -> Option<[f32; CLUSTER_SIZE]> {
+        Some(cluster_entries(self.clusters.get(cluster as usize)?.hull(), org, dir, tnear, tfar))
     }
 
     /// How many patches are never hit (zero area or zero normal).
@@ -335,30 +399,118 @@ impl PhongMesh {
 
     /// Bytes held by this mesh.
     pub fn memory_bytes(&self) -> usize {
-        self.patches.len() * (std::mem::size_of::<Patch<f32>>() + std::mem::size_of::<(Vec3, Vec3)>())
+        self.patches.len() * std::mem::size_of::<Patch<f32>>()
+            + self.clusters.len() * std::mem::size_of::<Cluster>()
     }
 }
 
 impl UserPrimitives for PhongMesh {
     fn count(&self) -> u32 {
-        self.patches.len() as u32
+        if self.clusters.is_empty() {
+            self.patches.len() as u32
+        } else {
+            self.clusters.len() as u32
+        }
     }
 
-    fn bounds(&self, prim: u32) -> Option<(Vec3, Vec3)> {
-        let p = self.patches.get(prim as usize)?;
+    fn bounds(&self, item: u32) -> Option<(Vec3, Vec3)> {
+        if !self.clusters.is_empty() {
+            return Some(self.clusters.get(item as usize)?.bounds());
+        }
+        let p = self.patches.get(item as usize)?;
         if p.degenerate() {
             return None; // excluded from the BVH (and counted in `degenerate`)
         }
-        self.bounds.get(prim as usize).copied()
+        let (lo, hi) = p.bounds();
+        Some((lo.into(), hi.into()))
     }
 
     #[inline]
-    fn intersect(&self, prim: u32, org: Vec3, dir: Vec3, tnear: f32, tfar: f32) -> Option<PrimHit> {
-        let p = self.patches.get(prim as usize)?;
-        let h = intersect(p, V3::from(org), V3::from(dir), tnear, tfar, self.method)?;
+    fn intersect(&self, item: u32, org: Vec3, dir: Vec3, tnear: f32, tfar: f32) -> Option<PrimHit> {
+        self.intersect_primitive(item, org, dir, tnear, tfar, |_| {})
+    }
+}
+
+/// One patch solve inside a ray callback's test, as [`PhongMesh::intersect_primitive`] reports it.
+#[derive(Clone, Copy, Debug)]
+pub struct PatchTest {
+    /// The patch (triangle index).
+    pub prim: u32,
+    /// The ray interval it was solved on: `tnear` and the nearest hit so far (or `tfar`).
+    pub tnear: f32,
+    /// See `tnear`.
+    pub tmax: f32,
+    /// The path the solve took.
+    pub outcome: TestOutcome,
+    /// Whether the solve ran the patch's own bounds and prism test (one patch per primitive),
+    /// or the cluster's prism test had run instead.
+    pub hull_tested: bool,
+}
+
+impl PhongMesh {
+    /// The nearest hit of `org + t dir`, `t` in `(tnear, tfar)`, on Embree primitive `item` (a
+    /// patch, or a cluster of them): what the ray callbacks answer. `on_test` sees each patch
+    /// solve (for profiling).
+    ///
+    /// In a cluster, the members whose prisms the ray enters are solved in the order it enters
+    /// them, each up to the nearest hit so far, until the next entry lies beyond it.
+    #[inline(always)]
+    pub fn intersect_primitive(
+        &self,
+        item: u32,
+        org: Vec3,
+        dir: Vec3,
+        tnear: f32,
+        tfar: f32,
+        mut on_test: impl FnMut(PatchTest),
+    ) -> Option<PrimHit> {
+        if self.clusters.is_empty() {
+            let p = self.patches.get(item as usize)?;
+            let (h, outcome) = intersect_traced(p, V3::from(org), V3::from(dir), tnear, tfar, self.method);
+            on_test(PatchTest { prim: item, tnear, tmax: tfar, outcome, hull_tested: true });
+            return h.map(|h| self.prim_hit(p, item, h));
+        }
+        let c = self.clusters.get(item as usize)?;
+        // Compute the entries, and the members entered, nearest first (ties by lane).
+        let entries = cluster_entries(c.hull(), org, dir, tnear, tfar);
+        let mut order = [(0.0f32, 0u32); CLUSTER_SIZE];
+        let mut n = 0;
+        for (i, &m) in c.members().iter().enumerate() {
+            let t = entries[i];
+            if t < f32::INFINITY {
+                let mut k = n;
+                while k > 0 && order[k - 1].0 > t {
+                    order[k] = order[k - 1];
+                    k -= 1;
+                }
+                order[k] = (t, m);
+                n += 1;
+            }
+        }
+        // Solve them until the next entry lies beyond the nearest hit.
+        let mut best: Option<PrimHit> = None;
+        let mut tmax = tfar;
+        for &(entry, prim) in &order[..n] {
+            if !(entry < tmax) {
+                break;
+            }
+            let Some(p) = self.patches.get(prim as usize) else { continue };
+            let (hit, outcome) =
+                intersect_in_hull_traced(p, V3::from(org), V3::from(dir), tnear, tmax, self.method);
+            on_test(PatchTest { prim, tnear, tmax, outcome, hull_tested: false });
+            if let Some(h) = hit {
+                tmax = h.t;
+                best = Some(self.prim_hit(p, prim, h));
+            }
+        }
+        best
+    }
+
+    /// The hit Embree is given for `h` on patch `p` (triangle `prim`).
+    #[inline(always)]
+    fn prim_hit(&self, p: &Patch<f32>, prim: u32, h: crate::phong::PatchHit<f32>) -> PrimHit {
         let (pu, pv) = p.partials_local(h.u, h.v);
-        let ng = pu.cross(pv);
-        Some(PrimHit { t: h.t, u: h.u, v: h.v, ng: Vec3::from(ng) })
+        PrimHit { t: h.t, u: h.u, v: h.v, ng: Vec3::from(pu.cross(pv)), prim }
     }
 }
 

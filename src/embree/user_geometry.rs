@@ -29,11 +29,14 @@ pub struct PrimHit {
     pub v: f32,
     /// Geometric normal (any length, oriented like Embree's triangles: `dp/du x dp/dv`).
     pub ng: Vec3,
+    /// The primID Embree reports: the primitive tested, or (for a primitive that groups
+    /// several, as [`crate::embree::PhongMesh`]'s clusters of patches) the member hit.
+    pub prim: u32,
 }
 
 /// A set of primitives that Embree can bound and intersect through callbacks.
 pub trait UserPrimitives: Send + Sync + 'static {
-    /// Number of primitives (Embree's primIDs are `0..count`).
+    /// Number of primitives (Embree's primitives are `0..count`; hits report [`PrimHit::prim`]).
     fn count(&self) -> u32;
     /// Conservative bounds of primitive `prim`, or `None` to exclude it from the BVH.
     fn bounds(&self, prim: u32) -> Option<(Vec3, Vec3)>;
@@ -178,6 +181,9 @@ unsafe fn write_hit(
     }
 }
 
+/// The most candidate hits offered to the filters per primitive and lane.
+const MAX_CANDIDATES: usize = 32;
+
 /// The largest packet Embree passes (rtcIntersect16).
 const MAX_N: usize = 16;
 
@@ -239,9 +245,10 @@ unsafe extern "C" fn intersect_callback<T: UserPrimitives>(args: *const sys::RTC
 }
 
 /// Offer each active lane's candidate hits on `prim`, nearest first, to `offer(lane, ray, hit)`,
-/// which returns whether the filters accepted it. A patch can be crossed several times: after a
-/// rejected candidate, look beyond it (at most 4 roots: the resultant of a line and a quadratic
-/// patch is a quartic). A rejection restores the lane's `tfar`, so its value read here holds.
+/// which returns whether the filters accepted it. A primitive can be crossed several times:
+/// after a rejected candidate, look beyond it (at most [`MAX_CANDIDATES`]: 4 roots for each of
+/// a cluster's 8 patches, the resultant of a line and a quadratic patch being a quartic). A
+/// rejection restores the lane's `tfar`, so its value read here holds.
 ///
 /// # Safety
 /// `ray` must be an RTCRayN (or the ray part of an RTCRayHitN) of width `valid.len()`.
@@ -260,7 +267,7 @@ unsafe fn for_each_candidate<T: UserPrimitives>(
         // SAFETY: lane < n and the layout is RTCRayN of width n (this function's contract).
         let r = unsafe { read_ray(ray, lane) };
         let mut tnear = r.tnear;
-        for _ in 0..4 {
+        for _ in 0..MAX_CANDIDATES {
             let Some(h) = data.intersect(prim, r.org, r.dir, tnear, r.tfar) else { break };
             if offer(lane, &r, &h) {
                 break;
@@ -293,7 +300,7 @@ unsafe fn intersect_lanes<T: UserPrimitives>(
         unsafe {
             let saved: [u32; HIT_FIELDS] = std::array::from_fn(|k| hit.u(k, lane));
             ray.set_f(RAY_TFAR, lane, h.t);
-            write_hit(hit, lane, h, a.primID, a.geomID, a.context);
+            write_hit(hit, lane, h, h.prim, a.geomID, a.context);
             let mut mask = lane_mask(n, lane);
             let fargs = sys::RTCFilterFunctionNArguments {
                 valid: mask.as_mut_ptr(),
@@ -368,7 +375,7 @@ unsafe fn occluded_lanes<T: UserPrimitives>(
         // there, with the ray's tfar set to it (restored unless accepted).
         unsafe {
             ray.set_f(RAY_TFAR, lane, h.t);
-            write_hit(hit, lane, h, a.primID, a.geomID, a.context);
+            write_hit(hit, lane, h, h.prim, a.geomID, a.context);
             let mut mask = lane_mask(n, lane);
             let fargs = sys::RTCFilterFunctionNArguments {
                 valid: mask.as_mut_ptr(),
@@ -509,6 +516,6 @@ impl UserPrimitives for UserTriangles {
             return None;
         }
         let t = e2.dot(q) * inv;
-        (t > tnear && t < tfar).then(|| PrimHit { t, u, v, ng: e1.cross(e2) })
+        (t > tnear && t < tfar).then(|| PrimHit { t, u, v, ng: e1.cross(e2), prim })
     }
 }

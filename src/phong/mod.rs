@@ -22,13 +22,15 @@
 pub const DEFAULT_ALPHA: f32 = 0.75;
 
 pub mod accuracy;
+pub mod cluster;
 pub mod intersect;
 pub mod patch;
 pub mod real;
 pub mod reference;
 
 pub use intersect::{
-    intersect, intersect_traced, solve_cubic, solve_quadratic, Method, PatchHit, TestOutcome,
+    intersect, intersect_in_hull_traced, intersect_traced, solve_cubic, solve_quadratic, Method, PatchHit,
+    TestOutcome,
 };
 pub use patch::{adapt_shading_normal, control_points, Patch, ShadingNormal};
 pub use real::{Real, V3};

@@ -23,6 +23,8 @@ pub enum BenchMethod {
     Pretessellated(u32),
     /// Direct Phong, certified Newton with the analytic method as fallback, f32 (the render path).
     DirectF32,
+    /// As `DirectF32`, with clusters of 8 patches per Embree primitive (one 8-lane prism test).
+    DirectF32Clustered,
     /// Direct Phong, analytic + polish for every ray, f32.
     AnalyticF32,
     /// Direct Phong, analytic + polish, f64 (the reference).
@@ -41,6 +43,7 @@ impl BenchMethod {
             BenchMethod::Flat => "flat".into(),
             BenchMethod::Pretessellated(l) => format!("pretess-{l}"),
             BenchMethod::DirectF32 => "direct-f32".into(),
+            BenchMethod::DirectF32Clustered => "direct-f32-k8".into(),
             BenchMethod::AnalyticF32 => "analytic-f32".into(),
             BenchMethod::DirectF64 => "direct-f64".into(),
             BenchMethod::NewtonF32 => "newton-f32".into(),
@@ -60,6 +63,7 @@ impl BenchMethod {
         v.extend(levels.iter().map(|&l| BenchMethod::Pretessellated(l)));
         v.extend([
             BenchMethod::DirectF32,
+            BenchMethod::DirectF32Clustered,
             BenchMethod::AnalyticF32,
             BenchMethod::DirectF64,
             BenchMethod::NewtonF32,
@@ -120,6 +124,7 @@ impl UserPrimitives for PhongMesh64 {
             u: h.u as f32,
             v: h.v as f32,
             ng: Vec3::new(ng.x as f32, ng.y as f32, ng.z as f32),
+            prim,
         })
     }
 }
@@ -275,15 +280,22 @@ fn build(device: &Device, m: &Mesh, method: BenchMethod, robust: bool) -> Result
             s.attach_triangles(&p, &i, GeometryOptions::default())?;
             0
         }
-        BenchMethod::DirectF32 | BenchMethod::AnalyticF32 | BenchMethod::NewtonF32 => {
+        BenchMethod::DirectF32
+        | BenchMethod::DirectF32Clustered
+        | BenchMethod::AnalyticF32
+        | BenchMethod::NewtonF32 => {
             let straight = m.straight_edges();
-            let mut pm =
-                PhongMesh::with_straight_edges(&m.positions, &m.normals, &m.indices, 1.0, Some(&straight))?;
-            match method {
-                BenchMethod::NewtonF32 => pm.set_method(Method::Newton),
-                BenchMethod::AnalyticF32 => pm.set_method(Method::AnalyticPolished),
-                _ => {}
-            }
+            let (solver, k) = match method {
+                BenchMethod::NewtonF32 => (Method::Newton, 1),
+                BenchMethod::AnalyticF32 => (Method::AnalyticPolished, 1),
+                BenchMethod::DirectF32Clustered => (Method::Certified, 8),
+                _ => (Method::Certified, 1),
+            };
+            let pm = PhongMesh::builder(&m.positions, &m.normals, &m.indices)
+                .straight_edges(&straight)
+                .method(solver)
+                .cluster_size(k)
+                .build()?;
             let own = pm.memory_bytes();
             s.attach_phong(pm, UserGeometryOptions::default())?;
             own

@@ -1036,7 +1036,9 @@ fn bench_cmd(args: cli::BenchArgs) -> anyhow::Result<()> {
     let mut profiles = Vec::new();
     for (name, m) in &scenes {
         bar.set_message(format!("{name}: profile"));
-        profiles.push(phongrt_cli::profile::profile_scene(name, m, args.size, args.size)?);
+        for k in [1, 8] {
+            profiles.push(phongrt_cli::profile::profile_scene(name, m, args.size, args.size, k)?);
+        }
     }
     bar.finish_and_clear();
     let mem = mem_total();

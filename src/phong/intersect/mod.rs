@@ -130,6 +130,36 @@ pub fn intersect_traced<T: Real>(
     tmax: T,
     method: Method,
 ) -> (Option<PatchHit<T>>, TestOutcome) {
+    intersect_with(p, org, dir, tmin, tmax, method, true)
+}
+
+/// [`intersect_traced`] for a ray a caller has already tested against a conservative hull of
+/// the patch (as [`crate::phong::cluster`]'s prism test does): the patch's own bounds and prism
+/// test is skipped. The hit is the same as [`intersect`]'s: the hull test only rejects rays
+/// that cannot hit.
+#[inline]
+pub fn intersect_in_hull_traced<T: Real>(
+    p: &Patch<T>,
+    org: V3<T>,
+    dir: V3<T>,
+    tmin: T,
+    tmax: T,
+    method: Method,
+) -> (Option<PatchHit<T>>, TestOutcome) {
+    intersect_with(p, org, dir, tmin, tmax, method, false)
+}
+
+/// The body of [`intersect_traced`], with the hull test where `cull`.
+#[inline(always)]
+fn intersect_with<T: Real>(
+    p: &Patch<T>,
+    org: V3<T>,
+    dir: V3<T>,
+    tmin: T,
+    tmax: T,
+    method: Method,
+    cull: bool,
+) -> (Option<PatchHit<T>>, TestOutcome) {
     if p.degenerate || tmin.to_f64().is_nan() || tmax.to_f64().is_nan() {
         return (None, TestOutcome::BadInput);
     }
@@ -140,7 +170,7 @@ pub fn intersect_traced<T: Real>(
     if !(o.is_finite() && d.is_finite()) || d.max_abs() == T::ZERO {
         return (None, TestOutcome::BadInput);
     }
-    if !hits_hull(p, o, d, tmin, tmax) {
+    if cull && !hits_hull(p, o, d, tmin, tmax) {
         return (None, TestOutcome::HullReject);
     }
     match method {
