@@ -19,6 +19,8 @@ fn row(method: &str, triangles: usize, bytes: usize, err_t_mean: f64, silhouette
         err_t_p50: err_t_mean,
         silhouette_px,
         shaded_ms: 1.0,
+        mrays_1t_packets: 1.0,
+        shaded_ms_packets: 1.0,
     }
 }
 

@@ -251,6 +251,18 @@ fn bench_writes_csv_table_and_plot() {
             .is_some_and(|x| x > 0.0)),
         "{csv}"
     );
+    // Packet rates and packet shaded times beside the single-ray ones, for every method.
+    assert!(
+        csv.starts_with("scene,")
+            && csv.lines().next().unwrap().ends_with(",mrays_1t_packets,shaded_ms_packets")
+    );
+    assert!(
+        csv.lines().skip(1).all(|l| {
+            let f: Vec<f64> = l.rsplit(',').take(2).filter_map(|x| x.parse().ok()).collect();
+            f.len() == 2 && f.iter().all(|x| *x > 0.0)
+        }),
+        "{csv}"
+    );
     let md = std::fs::read_to_string(dir.path().join("bench.md")).unwrap();
     assert!(md.contains("equal-silhouette pre-tessellation") && md.contains("| sphere-"), "{md}");
     assert!(md.contains("equal-depth pre-tessellation"), "{md}");

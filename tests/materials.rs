@@ -14,7 +14,7 @@ use phongrt_cli::render::{
 };
 
 fn settings(w: u32) -> RenderSettings {
-    RenderSettings { width: w, height: w, spp: 1, threads: Some(2), progress: false, seed: 0 }
+    RenderSettings { width: w, height: w, spp: 1, threads: Some(2), progress: false, seed: 0, packets: true }
 }
 
 fn camera() -> Camera {

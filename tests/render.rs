@@ -12,7 +12,7 @@ use phongrt_cli::render::scene_file::SceneFile;
 use phongrt_cli::render::{render, Camera, Light, ObjectMode, ObjectSettings, RenderSettings, World};
 
 fn settings(w: u32, threads: Option<usize>) -> RenderSettings {
-    RenderSettings { width: w, height: w, spp: 1, threads, progress: false, seed: 0 }
+    RenderSettings { width: w, height: w, spp: 1, threads, progress: false, seed: 0, packets: true }
 }
 
 fn sphere_world(device: &Device, seg: u32, rings: u32, mode: ObjectMode) -> World {

@@ -7,7 +7,7 @@ pub use device::{
     header_version, set_flush_denormals, Device, EmbreeError, ErrorCode, MAX_INSTANCE_LEVEL_COUNT,
 };
 pub use scene::{
-    new_query_context, GeometryOptions, Hit, IntersectArgs, OccludedArgs, QueryContext, Ray, Scene,
+    new_query_context, GeometryOptions, Hit, IntersectArgs, OccludedArgs, QueryContext, Ray, Scene, PACKET8,
 };
 mod panic;
 pub mod user_geometry;

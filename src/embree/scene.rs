@@ -734,3 +734,90 @@ macro_rules! packet_queries {
 packet_queries!(intersect4, occluded4, 4, sys::RTCRayHit4, sys::RTCRay4, rtcIntersect4, rtcOccluded4);
 packet_queries!(intersect8, occluded8, 8, sys::RTCRayHit8, sys::RTCRay8, rtcIntersect8, rtcOccluded8);
 packet_queries!(intersect16, occluded16, 16, sys::RTCRayHit16, sys::RTCRay16, rtcIntersect16, rtcOccluded16);
+
+/// The number of rays in a packet of [`Scene::intersect8_rays`] / [`Scene::occluded8_rays`].
+pub const PACKET8: usize = 8;
+
+/// An 8-ray packet in Embree's SOA layout, from `rays` (AOS); lane `i` is traced when bit `i`
+/// of `active` is set, and its hit starts out empty.
+fn rayhit8(rays: &[Ray; PACKET8]) -> sys::RTCRayHit8 {
+    let mut rh = sys::RTCRayHit8::default();
+    for (k, r) in rays.iter().enumerate() {
+        rh.ray.org_x[k] = r.org.x;
+        rh.ray.org_y[k] = r.org.y;
+        rh.ray.org_z[k] = r.org.z;
+        rh.ray.tnear[k] = r.tnear;
+        rh.ray.dir_x[k] = r.dir.x;
+        rh.ray.dir_y[k] = r.dir.y;
+        rh.ray.dir_z[k] = r.dir.z;
+        rh.ray.time[k] = r.time;
+        rh.ray.tfar[k] = r.tfar;
+        rh.ray.mask[k] = r.mask;
+        rh.hit.geomID[k] = sys::RTC_INVALID_GEOMETRY_ID;
+        rh.hit.primID[k] = sys::RTC_INVALID_GEOMETRY_ID;
+        for l in 0..MAX_INSTANCE_LEVEL_COUNT {
+            rh.hit.instID[l][k] = sys::RTC_INVALID_GEOMETRY_ID;
+            rh.hit.instPrimID[l][k] = sys::RTC_INVALID_GEOMETRY_ID;
+        }
+    }
+    rh
+}
+
+/// The valid mask of an 8-ray query: -1 where bit `i` of `active` is set.
+fn valid8(active: u8) -> [i32; PACKET8] {
+    std::array::from_fn(|k| if active & (1 << k) != 0 { -1 } else { 0 })
+}
+
+/// The query flags for coherent or incoherent rays.
+fn query_flags(coherent: bool) -> sys::RTCRayQueryFlags {
+    if coherent {
+        sys::RTCRayQueryFlags::RTC_RAY_QUERY_FLAG_COHERENT
+    } else {
+        sys::RTCRayQueryFlags::RTC_RAY_QUERY_FLAG_INCOHERENT
+    }
+}
+
+impl Scene {
+    /// The nearest hit of each of 8 rays traced as one packet (`rtcIntersect8`): lane `i` is
+    /// traced when bit `i` of `active` is set, the others answer `None`; `coherent` tells
+    /// Embree the rays are coherent (`RTC_RAY_QUERY_FLAG_COHERENT`: primary rays from a pixel
+    /// block, hard shadows towards one light). Each lane answers as [`Scene::intersect1`] on
+    /// its ray; all `None` on an uncommitted scene. A callback panic is resumed here.
+    pub fn intersect8_rays(
+        &self,
+        rays: &[Ray; PACKET8],
+        active: u8,
+        coherent: bool,
+    ) -> [Option<Hit>; PACKET8] {
+        let mut rh = rayhit8(rays);
+        let mut args = IntersectArgs::new().flags(query_flags(coherent));
+        if active == 0 || self.intersect8(&valid8(active), &mut rh, Some(&mut args)).is_err() {
+            return [None; PACKET8];
+        }
+        std::array::from_fn(|k| {
+            (active & (1 << k) != 0 && rh.hit.geomID[k] != sys::RTC_INVALID_GEOMETRY_ID).then(|| Hit {
+                t: rh.ray.tfar[k],
+                ng: Vec3::new(rh.hit.Ng_x[k], rh.hit.Ng_y[k], rh.hit.Ng_z[k]),
+                u: rh.hit.u[k],
+                v: rh.hit.v[k],
+                prim_id: rh.hit.primID[k],
+                geom_id: rh.hit.geomID[k],
+                inst_id: std::array::from_fn(|l| rh.hit.instID[l][k]),
+            })
+        })
+    }
+
+    /// Whether anything blocks each of 8 rays traced as one packet (`rtcOccluded8`): bit `i` of
+    /// the answer is set when lane `i` is active (bit `i` of `active`) and blocked, as
+    /// [`Scene::occluded1`] on its ray; 0 on an uncommitted scene. `coherent` as in
+    /// [`Scene::intersect8_rays`]. A callback panic is resumed here.
+    pub fn occluded8_rays(&self, rays: &[Ray; PACKET8], active: u8, coherent: bool) -> u8 {
+        let mut ray = rayhit8(rays).ray;
+        let mut args = OccludedArgs::new().flags(query_flags(coherent));
+        if active == 0 || self.occluded8(&valid8(active), &mut ray, Some(&mut args)).is_err() {
+            return 0;
+        }
+        (0..PACKET8)
+            .fold(0, |m, k| m | (((active & (1 << k) != 0 && ray.tfar[k] == f32::NEG_INFINITY) as u8) << k))
+    }
+}

@@ -9,7 +9,7 @@ use rayon::prelude::*;
 use crate::render::Camera;
 use phongrt::embree::{
     Device, EmbreeError, GeometryOptions, PhongMesh, PhongMeshError, PrimHit, Ray, Scene,
-    UserGeometryOptions, UserPrimitives, UserTriangles,
+    UserGeometryOptions, UserPrimitives, UserTriangles, PACKET8,
 };
 use phongrt::phong::{control_points, intersect, Method, Patch, V3};
 use phongrt::scene::Mesh;
@@ -249,6 +249,12 @@ pub struct BenchRow {
     /// A full shaded render on all cores: `SHADED_SPP` samples per pixel, one shadow ray per
     /// hit towards a directional light, Lambert on the geometric normal.
     pub shaded_ms: f64,
+    /// Primary rays per second on one thread, traced in coherent 8-ray packets from 4x2 pixel
+    /// blocks (`Scene::intersect8_rays`).
+    pub mrays_1t_packets: f64,
+    /// The shaded render of `shaded_ms` with its primary and shadow rays in coherent 8-ray
+    /// packets from 4x2 pixel blocks.
+    pub shaded_ms_packets: f64,
 }
 
 /// Why a bench scene could not be run.
@@ -260,6 +266,16 @@ pub enum BenchError {
     /// The mesh was refused as a Phong mesh.
     #[error(transparent)]
     PhongMesh(#[from] PhongMeshError),
+    /// Packets answered other depths than single rays (each lane must answer as its ray alone).
+    #[error("{scene}: {method}: {differ} pixels traced in packets differ from single rays")]
+    PacketsDiffer {
+        /// The scene.
+        scene: String,
+        /// The method.
+        method: String,
+        /// How many pixels differ.
+        differ: usize,
+    },
     /// The mesh's bounds give no camera (empty or non-finite).
     #[error("{0}: cannot frame a camera on its bounds")]
     Camera(String),
@@ -362,6 +378,94 @@ fn shaded(scene: &Scene, frame: &crate::render::CameraFrame, width: u32, height:
         sum
     };
     (0..height).into_par_iter().map(row).sum()
+}
+
+/// The lanes of the 4x2 pixel block at `(bx, by)` (lane `k` is pixel `(bx + k % 4, by + k / 4)`)
+/// inside the `width`x`height` image, as a mask.
+fn block_lanes(bx: u32, by: u32, width: u32, height: u32) -> u8 {
+    (0..PACKET8).fold(0, |m, k| {
+        let (x, y) = (bx + k as u32 % 4, by + k as u32 / 4);
+        m | (((x < width && y < height) as u8) << k)
+    })
+}
+
+/// [`depth`] on one thread with the rays (one per pixel, row-major) traced in coherent 8-ray
+/// packets from 4x2 pixel blocks: the same depths.
+fn depth_packets(scene: &Scene, rays: &[Ray], width: u32, height: u32) -> Vec<Option<f32>> {
+    let mut out = vec![None; rays.len()];
+    for by in (0..height).step_by(2) {
+        for bx in (0..width).step_by(4) {
+            let active = block_lanes(bx, by, width, height);
+            let index = |k: usize| ((by + k as u32 / 4) * width + bx + k as u32 % 4) as usize;
+            let packet =
+                std::array::from_fn(|k| if active & (1 << k) != 0 { rays[index(k)] } else { rays[0] });
+            let hits = scene.intersect8_rays(&packet, active, true);
+            for (k, h) in hits.iter().enumerate().filter(|(k, _)| active & (1 << k) != 0) {
+                out[index(k)] = h.map(|h| h.t);
+            }
+        }
+    }
+    out
+}
+
+/// The shaded render of [`shaded`] with its primary rays, then its shadow rays, traced in
+/// coherent 8-ray packets from 4x2 pixel blocks (one packet per block and sample): the same
+/// lanes hit and are lit, so the sum is `shaded`'s up to summation order.
+fn shaded_packets(
+    scene: &Scene,
+    frame: &crate::render::CameraFrame,
+    width: u32,
+    height: u32,
+    light: Vec3,
+) -> f64 {
+    use crate::render::world::SurfacePoint;
+    use phongrt::phong::Real;
+    let rows = |by: u32| -> f64 {
+        let mut sum = 0.0f64;
+        for bx in (0..width).step_by(4) {
+            let active = block_lanes(bx, by, width, height);
+            for s in 0..SHADED_SPP {
+                let rays: [Ray; PACKET8] = std::array::from_fn(|k| {
+                    let (x, y) = (bx + k as u32 % 4, by + k as u32 / 4);
+                    let (ox, oy) = crate::render::sample_offset(x, y, s, SHADED_SPP, 0);
+                    Ray::new(frame.eye, frame.direction(x as f32 + ox, y as f32 + oy, width, height))
+                });
+                let hits = scene.intersect8_rays(&rays, active, true);
+                let mut shadow = [Ray::new(Vec3::ZERO, light); PACKET8];
+                let mut cos = [0.0f32; PACKET8];
+                let mut lit = 0u8;
+                for (k, (h, ray)) in hits.iter().zip(&rays).enumerate() {
+                    let Some(h) = h else { continue };
+                    let Some(mut n) = h.ng.try_normalize() else { continue };
+                    if n.dot(ray.dir) > 0.0 {
+                        n = -n;
+                    }
+                    cos[k] = n.dot(light);
+                    if cos[k] <= 0.0 {
+                        continue;
+                    }
+                    // The shadow ray of `shaded`.
+                    let sp = SurfacePoint {
+                        p: ray.at(h.t),
+                        p_error: <f32 as Real>::gamma(7) * (ray.org.abs() + (h.t * ray.dir).abs()),
+                        ng: n,
+                        n,
+                        entering: true,
+                        terminator: crate::render::Terminator::Plain,
+                        lift: Vec3::ZERO,
+                    };
+                    shadow[k] = Ray::new(sp.offset_origin(light), light);
+                    lit |= 1 << k;
+                }
+                let free = lit & !scene.occluded8_rays(&shadow, lit, true);
+                for (_, c) in cos.iter().enumerate().filter(|(k, _)| free & (1 << k) != 0) {
+                    sum += *c as f64;
+                }
+            }
+        }
+        sum
+    };
+    (0..height.div_ceil(2)).into_par_iter().map(|i| rows(2 * i)).sum()
 }
 
 fn depth(scene: &Scene, rays: &[Ray], parallel: bool) -> Vec<Option<f32>> {
@@ -489,6 +593,19 @@ pub fn bench_scene(
         let shaded_ms = best_of(TIMING_RUNS, || {
             std::hint::black_box(shaded(&scene, &frame, width, height, light));
         }) * 1e3;
+        // The same with packets: the same rays, the same answers.
+        let t3 = Instant::now();
+        let d_packets = depth_packets(&scene, &rays, width, height);
+        let packets_s = t3.elapsed().as_secs_f64().min(best_of(TIMING_RUNS - 1, || {
+            std::hint::black_box(depth_packets(&scene, &rays, width, height));
+        }));
+        if d_packets != d_one {
+            let differ = d_packets.iter().zip(&d_one).filter(|(a, b)| a != b).count();
+            return Err(BenchError::PacketsDiffer { scene: name.to_string(), method: method.name(), differ });
+        }
+        let shaded_ms_packets = best_of(TIMING_RUNS, || {
+            std::hint::black_box(shaded_packets(&scene, &frame, width, height, light));
+        }) * 1e3;
         let (mut sum, mut max, mut n, mut sil) = (0.0f64, 0.0f64, 0usize, 0usize);
         let mut errs = Vec::with_capacity(reference.len());
         for (a, r) in d_one.iter().zip(&reference) {
@@ -519,6 +636,8 @@ pub fn bench_scene(
             err_t_p50: median(&mut errs),
             silhouette_px: sil,
             shaded_ms,
+            mrays_1t_packets: rays.len() as f64 / packets_s / 1e6,
+            shaded_ms_packets,
         });
         drop(scene);
     }
@@ -536,10 +655,10 @@ pub fn median(v: &mut [f64]) -> f64 {
 
 /// CSV with a header line.
 pub fn to_csv(rows: &[BenchRow]) -> String {
-    let mut s = String::from("scene,triangles,method,build_ms,embree_bytes,own_bytes,mrays_1t,mrays_all,first_image_ms,err_t_mean,err_t_max,err_t_p50,silhouette_px,shaded_ms\n");
+    let mut s = String::from("scene,triangles,method,build_ms,embree_bytes,own_bytes,mrays_1t,mrays_all,first_image_ms,err_t_mean,err_t_max,err_t_p50,silhouette_px,shaded_ms,mrays_1t_packets,shaded_ms_packets\n");
     for r in rows {
         s += &format!(
-            "{},{},{},{:.3},{},{},{:.3},{:.3},{:.3},{:.3e},{:.3e},{:.3e},{},{:.3}\n",
+            "{},{},{},{:.3},{},{},{:.3},{:.3},{:.3},{:.3e},{:.3e},{:.3e},{},{:.3},{:.3},{:.3}\n",
             r.scene,
             r.triangles,
             r.method,
@@ -553,7 +672,9 @@ pub fn to_csv(rows: &[BenchRow]) -> String {
             r.err_t_max,
             r.err_t_p50,
             r.silhouette_px,
-            r.shaded_ms
+            r.shaded_ms,
+            r.mrays_1t_packets,
+            r.shaded_ms_packets
         );
     }
     s
@@ -566,11 +687,13 @@ fn find<'a>(rows: &'a [BenchRow], scene: &str, method: &str) -> Option<&'a Bench
 
 /// A markdown table; ratios are against flat on the same scene.
 pub fn to_markdown(rows: &[BenchRow]) -> String {
-    let mut s = String::from("| scene | tris | method | build ms | Embree MB | own MB | Mrays/s 1 thread | Mrays/s all | first image ms | rel t err mean | p50 | max | silhouette px | shaded ms | shaded × flat |\n|---|---|---|---|---|---|---|---|---|---|---|---|---|---|---|\n");
+    let mut s = String::from("| scene | tris | method | build ms | Embree MB | own MB | Mrays/s 1 thread | Mrays/s 1 thread, packets | Mrays/s all | first image ms | rel t err mean | p50 | max | silhouette px | shaded ms | shaded × flat | shaded ms (packets) | shaded (packets) × flat (packets) |\n|---|---|---|---|---|---|---|---|---|---|---|---|---|---|---|---|---|---|\n");
     for r in rows {
         let ratio = find(rows, &r.scene, "flat").map_or(f64::NAN, |f| r.shaded_ms / f.shaded_ms.max(1e-9));
+        let ratio_packets = find(rows, &r.scene, "flat")
+            .map_or(f64::NAN, |f| r.shaded_ms_packets / f.shaded_ms_packets.max(1e-9));
         s += &format!(
-            "| {} | {} | {} | {:.2} | {:.2} | {:.2} | {:.2} | {:.2} | {:.1} | {:.1e} | {:.1e} | {:.1e} | {} | {:.1} | {:.2} |\n",
+            "| {} | {} | {} | {:.2} | {:.2} | {:.2} | {:.2} | {:.2} | {:.2} | {:.1} | {:.1e} | {:.1e} | {:.1e} | {} | {:.1} | {:.2} | {:.1} | {:.2} |\n",
             r.scene,
             r.triangles,
             r.method,
@@ -578,6 +701,7 @@ pub fn to_markdown(rows: &[BenchRow]) -> String {
             r.embree_bytes as f64 / 1e6,
             r.own_bytes as f64 / 1e6,
             r.mrays_1t,
+            r.mrays_1t_packets,
             r.mrays_all,
             r.first_image_ms,
             r.err_t_mean,
@@ -585,7 +709,9 @@ pub fn to_markdown(rows: &[BenchRow]) -> String {
             r.err_t_max,
             r.silhouette_px,
             r.shaded_ms,
-            ratio
+            ratio,
+            r.shaded_ms_packets,
+            ratio_packets
         );
     }
     s

@@ -61,6 +61,13 @@ pub struct SmoothnessArgs {
     pub margin: u32,
 }
 
+/// A setting that is on or off.
+#[derive(Clone, Copy, Debug, PartialEq, Eq, ValueEnum)]
+pub enum Switch {
+    On,
+    Off,
+}
+
 /// How surfaces are made.
 #[derive(Clone, Copy, Debug, PartialEq, Eq, ValueEnum)]
 pub enum Mode {
@@ -122,6 +129,10 @@ pub struct RenderArgs {
     /// has. The image does not depend on it.
     #[arg(long)]
     pub threads: Option<usize>,
+    /// Trace camera rays and hard shadows in coherent 8-ray packets from 4x2 pixel blocks (on),
+    /// or every ray alone (off). The image is the same either way.
+    #[arg(long, value_enum, default_value_t = Switch::On)]
+    pub packets: Switch,
     #[command(flatten)]
     pub farm: FarmArgs,
     #[command(flatten)]

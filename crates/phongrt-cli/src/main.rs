@@ -537,6 +537,7 @@ fn render_cmd(args: RenderArgs) -> anyhow::Result<()> {
         threads: plan.threads,
         progress: !args.quiet,
         seed: plan.seed,
+        packets: args.packets == cli::Switch::On,
     };
 
     // Shading choices: the command line over the scene file over the defaults.

@@ -8,7 +8,7 @@ use glam::{Vec2, Vec3};
 
 use super::texture::Texture;
 use super::{RayCounts, RenderError};
-use phongrt::embree::{Device, GeometryOptions, Hit, PhongMesh, Ray, Scene, UserGeometryOptions};
+use phongrt::embree::{Device, GeometryOptions, Hit, PhongMesh, Ray, Scene, UserGeometryOptions, PACKET8};
 use phongrt::phong::Real;
 use phongrt::phong::ShadingNormal;
 use phongrt::rng::SplitMix;
@@ -606,23 +606,119 @@ impl World {
         self.radiance(ray, 0, counts, rng)
     }
 
-    fn radiance(&self, ray: Ray, depth: u32, counts: &mut RayCounts, rng: &mut Rng) -> Vec3 {
-        let Some(hit) = self.scene.intersect1(ray) else {
-            return match &self.environment {
+    /// Radiance along each camera ray of an 8-ray packet, as [`World::shade`] gives it lane by
+    /// lane (the same value, counts and `rngs[k]` draws): the lanes in `trace` (bit `k` for lane
+    /// `k`) are intersected as one coherent packet, the lanes in `shade` (a subset) are shaded,
+    /// and their hard shadows towards each point or directional light (where no surface is
+    /// transmissive, so one any-hit ray decides) are traced as one coherent packet per light.
+    /// Lanes not shaded answer zero. A lane's answer does not depend on the other lanes: each
+    /// lane of a packet query answers as the single-ray query does (tests/packets.rs).
+    pub fn shade8(
+        &self,
+        rays: &[Ray; PACKET8],
+        trace: u8,
+        shade: u8,
+        counts: &mut RayCounts,
+        rngs: &mut [Rng; PACKET8],
+    ) -> [Vec3; PACKET8] {
+        let shade = shade & trace;
+        let hits = self.scene.intersect8_rays(rays, trace, true);
+        // Compute the arrival of each shaded lane: a miss's radiance or a shading point.
+        let arrivals: [Option<Arrival<'_>>; PACKET8] = std::array::from_fn(|k| {
+            (shade & (1 << k) != 0).then(|| {
+                counts.primary += 1;
+                self.arrival(&rays[k], hits[k])
+            })
+        });
+        // Trace the hard shadows of the lit lanes, one packet per light.
+        let mut traced = [[None; PACKET_LIGHTS]; PACKET8];
+        if !self.any_transmissive() {
+            for (i, light) in self.lights.iter().enumerate().take(PACKET_LIGHTS) {
+                let mut shadow_rays = [Ray::new(Vec3::ZERO, Vec3::Z); PACKET8];
+                let mut active = 0u8;
+                for (k, a) in arrivals.iter().enumerate() {
+                    let Some(Arrival::Surface { obj, sp, .. }) = a else { continue };
+                    if !lit(&obj.surface) {
+                        continue;
+                    }
+                    let Some((dir, tfar)) = hard_shadow(light, sp) else { continue };
+                    // As `visibility` does for the same light and point.
+                    let o = self.shadow_origin(sp, dir, counts);
+                    counts.shadow += 1;
+                    shadow_rays[k] = Ray::new(o, dir).with_range(0.0, tfar);
+                    active |= 1 << k;
+                }
+                let blocked = self.scene.occluded8_rays(&shadow_rays, active, true);
+                for (k, t) in traced.iter_mut().enumerate().filter(|(k, _)| active & (1 << k) != 0) {
+                    t[i] = Some(if blocked & (1 << k) != 0 { 0.0 } else { 1.0 });
+                }
+            }
+        }
+        // Shade each lane from its hit, with its shadows traced.
+        let mut out = [Vec3::ZERO; PACKET8];
+        for (k, a) in arrivals.into_iter().enumerate() {
+            out[k] = match a {
+                None => Vec3::ZERO,
+                Some(Arrival::Miss(c)) => c,
+                Some(Arrival::Surface { hit, obj, sp }) => {
+                    self.radiance_at(&rays[k], &hit, obj, &sp, 0, counts, &mut rngs[k], &traced[k])
+                }
+            };
+        }
+        out
+    }
+
+    /// Whether some surface transmits light (then shadow rays pass through it, one by one).
+    fn any_transmissive(&self) -> bool {
+        self.objects.iter().any(|x| x.surface.refracts())
+    }
+
+    /// What a ray arrives at: the miss radiance, or the object and shading point it hits.
+    fn arrival(&self, ray: &Ray, hit: Option<Hit>) -> Arrival<'_> {
+        let Some(hit) = hit else {
+            return Arrival::Miss(match &self.environment {
                 Some(env) => env.radiance(ray.dir),
                 None => self.background,
-            };
+            });
         };
         let Some(obj) = self.objects.get(hit.geom_id as usize) else {
-            return self.background;
+            return Arrival::Miss(self.background);
         };
-        let sp = obj.surface_point(&hit, &ray, self.shading, self.terminator);
+        let sp = obj.surface_point(&hit, ray, self.shading, self.terminator);
+        Arrival::Surface { hit, obj, sp }
+    }
+
+    fn radiance(&self, ray: Ray, depth: u32, counts: &mut RayCounts, rng: &mut Rng) -> Vec3 {
+        match self.arrival(&ray, self.scene.intersect1(ray)) {
+            Arrival::Miss(c) => c,
+            Arrival::Surface { hit, obj, sp } => {
+                self.radiance_at(&ray, &hit, obj, &sp, depth, counts, rng, &[None; PACKET_LIGHTS])
+            }
+        }
+    }
+
+    /// Radiance leaving the shading point `sp` of `hit` on `obj` towards the ray's origin;
+    /// `traced[i]` is light `i`'s hard-shadow visibility where it was traced ahead (in a
+    /// packet), `None` where this traces its own shadow ray.
+    #[allow(clippy::too_many_arguments)]
+    fn radiance_at(
+        &self,
+        ray: &Ray,
+        hit: &Hit,
+        obj: &Object,
+        sp: &SurfacePoint,
+        depth: u32,
+        counts: &mut RayCounts,
+        rng: &mut Rng,
+        traced: &[Option<f32>; PACKET_LIGHTS],
+    ) -> Vec3 {
+        let (ray, sp) = (*ray, *sp);
         let s = obj.surface;
         let mut c = Vec3::ZERO;
 
         // Direct light: diffuse, plus the highlight lobe only for glossy materials.
         let glossy = s.glossy();
-        if s.kd.max_element() > 0.0 || glossy {
+        if lit(&s) {
             let mut e = self.ambient;
             if let Some(ao) = self.ambient_occlusion {
                 e *= self.ambient_visibility(&sp, ao, counts, rng);
@@ -640,16 +736,17 @@ impl World {
             }
             c += kd * e;
             let v = -ray.dir.normalize_or_zero();
-            for light in &self.lights {
+            for (i, light) in self.lights.iter().enumerate() {
+                let traced = traced.get(i).copied().flatten();
                 if glossy {
                     let mut spec = 0u64;
-                    c += self.irradiance(light, &sp, counts, rng, |l| {
+                    c += self.irradiance(light, &sp, traced, counts, rng, |l| {
                         spec += 1;
                         kd + s.blinn_phong(sp.n, v, l)
                     });
                     counts.specular += spec;
                 } else {
-                    c += self.irradiance(light, &sp, counts, rng, |_| kd);
+                    c += self.irradiance(light, &sp, traced, counts, rng, |_| kd);
                 }
             }
         }
@@ -689,11 +786,13 @@ impl World {
     }
 
     /// Light reflected from one light at a shading point: the irradiance from each light direction
-    /// `l` weighted by `brdf(l)`, with shadow rays only if the light casts them.
+    /// `l` weighted by `brdf(l)`, with shadow rays only if the light casts them (a hard shadow's
+    /// visibility is `traced` where it was traced ahead, see [`hard_shadow`]).
     fn irradiance(
         &self,
         light: &Light,
         sp: &SurfacePoint,
+        traced: Option<f32>,
         counts: &mut RayCounts,
         rng: &mut Rng,
         mut brdf: impl FnMut(Vec3) -> Vec3,
@@ -705,7 +804,11 @@ impl World {
                 if cos <= 0.0 {
                     return Vec3::ZERO;
                 }
-                let vis = if shadows { self.visibility(sp, l, f32::INFINITY, counts) } else { 1.0 };
+                let vis = match traced {
+                    Some(v) => v,
+                    None if shadows => self.visibility(sp, l, f32::INFINITY, counts),
+                    None => 1.0,
+                };
                 if vis == 0.0 {
                     return Vec3::ZERO;
                 }
@@ -719,7 +822,11 @@ impl World {
                 if cos <= 0.0 || d2 == 0.0 {
                     return Vec3::ZERO;
                 }
-                let vis = if shadows { self.visibility(sp, to, 1.0, counts) } else { 1.0 };
+                let vis = match traced {
+                    Some(v) => v,
+                    None if shadows => self.visibility(sp, to, 1.0, counts),
+                    None => 1.0,
+                };
                 if vis == 0.0 {
                     return Vec3::ZERO;
                 }
@@ -761,7 +868,7 @@ impl World {
     fn visibility(&self, sp: &SurfacePoint, dir: Vec3, tfar: f32, counts: &mut RayCounts) -> f32 {
         let o = self.shadow_origin(sp, dir, counts);
         counts.shadow += 1;
-        if !self.objects.iter().any(|x| x.surface.refracts()) {
+        if !self.any_transmissive() {
             return if self.scene.occluded1(Ray::new(o, dir).with_range(0.0, tfar)) { 0.0 } else { 1.0 };
         }
         let end = (tfar.is_finite()).then(|| o + tfar * dir);
@@ -922,6 +1029,43 @@ impl SurfacePoint {
         let gp = -g * g * g + g * g + g;
         let t = cos_s / band;
         cos_s * (gp + (1.0 - gp) * t)
+    }
+}
+
+/// The lights whose hard shadows [`World::shade8`] traces in packets (the first ones; any
+/// further light traces its shadow rays one by one).
+pub const PACKET_LIGHTS: usize = 8;
+
+/// What a ray arrives at (see [`World::shade8`]).
+enum Arrival<'a> {
+    /// Nothing: the background's (or environment's) radiance.
+    Miss(Vec3),
+    /// A surface: the hit, its object and its shading point.
+    Surface { hit: Hit, obj: &'a Object, sp: SurfacePoint },
+}
+
+/// Whether a surface takes direct light (diffuse or glossy): only then are lights evaluated.
+fn lit(s: &Surface) -> bool {
+    s.kd.max_element() > 0.0 || s.glossy()
+}
+
+/// The hard-shadow ray `irradiance` traces at `sp` for a point or directional light that casts
+/// shadows, as `(direction, tfar)`: `None` for other lights, and where the light brings nothing
+/// (`light_factor` zero, or a point light at the shading point), so no ray is traced.
+fn hard_shadow(light: &Light, sp: &SurfacePoint) -> Option<(Vec3, f32)> {
+    match *light {
+        Light::Directional { direction, shadows: true, .. } => {
+            let l = direction.normalize_or_zero();
+            // Exactly `irradiance`'s test (a NaN factor goes on to trace).
+            (!(sp.light_factor(l) <= 0.0)).then_some((l, f32::INFINITY))
+        }
+        Light::Point { position, shadows: true, .. } => {
+            let to = position - sp.p;
+            let d2 = to.length_squared();
+            let l = to / d2.sqrt();
+            (!(sp.light_factor(l) <= 0.0 || d2 == 0.0)).then_some((to, 1.0))
+        }
+        _ => None,
     }
 }
 

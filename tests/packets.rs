@@ -1,0 +1,155 @@
+//! 8-ray packets through the safe API (`Scene::intersect8_rays` / `occluded8_rays`): every
+//! lane answers exactly as the single-ray query on its ray, for Embree's own triangles and for
+//! Phong user geometry, coherent or not, whatever the mask; callback panics are resumed.
+use std::panic::{catch_unwind, AssertUnwindSafe};
+
+use glam::Vec3;
+use phongrt::embree::{
+    Device, GeometryOptions, PhongMesh, PrimHit, Ray, Scene, UserGeometryOptions, UserPrimitives, PACKET8,
+};
+use phongrt::phong::accuracy::SplitMix;
+use phongrt::scene::uv_sphere;
+
+/// Partial and full masks, including single lanes at both ends and none at all.
+const MASKS: [u8; 7] = [0xFF, 0x0F, 0xF0, 0xA5, 0x01, 0x80, 0x00];
+
+/// Camera rays in 4x2 pixel blocks over a `w x h` image looking down -z at the origin (the
+/// renderer's blocks), then random rays through the unit ball (incoherent packets).
+fn packets(w: u32, h: u32, random: usize) -> Vec<[Ray; PACKET8]> {
+    let eye = Vec3::new(0.1, 0.2, 3.0);
+    let mut out = Vec::new();
+    for by in (0..h).step_by(2) {
+        for bx in (0..w).step_by(4) {
+            out.push(std::array::from_fn(|k| {
+                let (x, y) = (bx + k as u32 % 4, by + k as u32 / 4);
+                let s = Vec3::new((x as f32 + 0.5) / w as f32 - 0.5, 0.5 - (y as f32 + 0.5) / h as f32, -1.0);
+                Ray::new(eye, s * Vec3::new(2.6, 2.6, 1.0))
+            }));
+        }
+    }
+    let mut r = SplitMix(7);
+    for _ in 0..random {
+        out.push(std::array::from_fn(|_| {
+            let o = r.unit().as_vec3() * 3.0;
+            let target = r.unit().as_vec3() * 0.9;
+            Ray::new(o, target - o).with_range(0.0, 0.5 + r.f() as f32)
+        }));
+    }
+    out
+}
+
+/// Check every lane of every packet, under every mask, coherent and not, against the single
+/// ray queries; returns how many active lanes hit.
+fn check_lanes_match_single_rays(scene: &Scene) -> usize {
+    let mut hits = 0;
+    for rays in packets(64, 48, 400) {
+        let single: Vec<_> = rays.iter().map(|r| scene.intersect1(*r)).collect();
+        let blocked: Vec<_> = rays.iter().map(|r| scene.occluded1(*r)).collect();
+        for mask in MASKS {
+            for coherent in [true, false] {
+                let got = scene.intersect8_rays(&rays, mask, coherent);
+                let occ = scene.occluded8_rays(&rays, mask, coherent);
+                for k in 0..PACKET8 {
+                    if mask & (1 << k) == 0 {
+                        assert_eq!(got[k], None, "inactive lane {k} answered (mask {mask:#04x})");
+                        assert_eq!(occ & (1 << k), 0, "inactive lane {k} occluded (mask {mask:#04x})");
+                        continue;
+                    }
+                    assert_eq!(
+                        got[k], single[k],
+                        "lane {k}, mask {mask:#04x}, coherent {coherent}: {:?}",
+                        rays[k]
+                    );
+                    assert_eq!(occ & (1 << k) != 0, blocked[k], "lane {k}, mask {mask:#04x}: {:?}", rays[k]);
+                    hits += got[k].is_some() as usize;
+                }
+            }
+        }
+    }
+    hits
+}
+
+#[test]
+fn packet_lanes_equal_single_rays_on_flat_triangles() {
+    let device = Device::new().unwrap();
+    let m = uv_sphere(24, 12, 1.0);
+    let mut scene = Scene::new(&device).unwrap();
+    scene.attach_triangles(&m.positions, &m.indices, GeometryOptions::default()).unwrap();
+    scene.commit().unwrap();
+    assert!(check_lanes_match_single_rays(&scene) > 10_000);
+}
+
+#[test]
+fn packet_lanes_equal_single_rays_on_a_phong_mesh() {
+    let device = Device::new().unwrap();
+    let m = uv_sphere(12, 6, 1.0);
+    let pm = PhongMesh::new(m.positions.clone(), m.normals.clone(), m.indices.clone(), 0.75).unwrap();
+    let mut scene = Scene::new(&device).unwrap();
+    scene.attach_phong(pm, UserGeometryOptions::default()).unwrap();
+    // A flat floor beside it, so packets mix user geometry and Embree's triangles.
+    let floor = [Vec3::new(-3.0, -1.0, -3.0), Vec3::new(3.0, -1.0, -3.0), Vec3::new(0.0, -1.0, 3.0)];
+    scene.attach_triangles(&floor, &[[0, 2, 1]], GeometryOptions::default()).unwrap();
+    scene.commit().unwrap();
+    assert!(check_lanes_match_single_rays(&scene) > 10_000);
+}
+
+#[test]
+fn packet_queries_on_an_uncommitted_scene_answer_nothing() {
+    let device = Device::new().unwrap();
+    let m = uv_sphere(12, 6, 1.0);
+    let mut scene = Scene::new(&device).unwrap();
+    scene.attach_triangles(&m.positions, &m.indices, GeometryOptions::default()).unwrap();
+    let rays = [Ray::new(Vec3::new(0.0, 0.0, 3.0), -Vec3::Z); PACKET8];
+    assert_eq!(scene.intersect8_rays(&rays, 0xFF, true), [None; PACKET8]);
+    assert_eq!(scene.occluded8_rays(&rays, 0xFF, true), 0);
+    scene.commit().unwrap();
+    assert!(scene.intersect8_rays(&rays, 0xFF, true).iter().all(Option::is_some));
+    assert_eq!(scene.occluded8_rays(&rays, 0xFF, true), 0xFF);
+}
+
+/// The unit triangle in z = 0, whose intersect callback panics.
+struct Exploding;
+
+impl UserPrimitives for Exploding {
+    fn count(&self) -> u32 {
+        1
+    }
+    fn bounds(&self, _prim: u32) -> Option<(Vec3, Vec3)> {
+        Some((Vec3::new(0.0, 0.0, -0.01), Vec3::new(1.0, 1.0, 0.01)))
+    }
+    fn intersect(&self, _prim: u32, _org: Vec3, _dir: Vec3, _tnear: f32, _tfar: f32) -> Option<PrimHit> {
+        panic!("packet lane exploded");
+    }
+}
+
+fn panic_message(payload: Box<dyn std::any::Any + Send>) -> String {
+    payload
+        .downcast_ref::<&str>()
+        .map(|s| s.to_string())
+        .or_else(|| payload.downcast_ref::<String>().cloned())
+        .unwrap_or_default()
+}
+
+#[test]
+fn a_panic_in_a_callback_during_a_packet_query_is_resumed_in_the_caller() {
+    let device = Device::new().unwrap();
+    let mut scene = Scene::new(&device).unwrap();
+    scene.attach_user(Exploding, UserGeometryOptions::default()).unwrap();
+    scene.commit().unwrap();
+    let rays = [Ray::new(Vec3::new(0.2, 0.3, 1.0), -Vec3::Z); PACKET8];
+    for coherent in [true, false] {
+        let e = catch_unwind(AssertUnwindSafe(|| scene.intersect8_rays(&rays, 0x24, coherent)))
+            .expect_err("intersect8_rays swallowed the panic");
+        assert_eq!(panic_message(e), "packet lane exploded");
+        let e = catch_unwind(AssertUnwindSafe(|| scene.occluded8_rays(&rays, 0x81, coherent)))
+            .expect_err("occluded8_rays swallowed the panic");
+        assert_eq!(panic_message(e), "packet lane exploded");
+    }
+    // Nothing is left pending on the thread, and nothing was recorded for commit to report.
+    let mut good = Scene::new(&device).unwrap();
+    let tri = [Vec3::ZERO, Vec3::X, Vec3::Y];
+    good.attach_triangles(&tri, &[[0, 1, 2]], GeometryOptions::default()).unwrap();
+    good.commit().unwrap();
+    assert_eq!(good.occluded8_rays(&rays, 0xFF, true), 0xFF);
+    scene.commit().unwrap();
+}
