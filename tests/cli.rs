@@ -239,7 +239,7 @@ fn bench_writes_csv_table_and_plot() {
         );
     let _ = a;
     let csv = std::fs::read_to_string(dir.path().join("bench.csv")).unwrap();
-    assert_eq!(csv.lines().count(), 1 + 1 + 2 + 6, "{csv}");
+    assert_eq!(csv.lines().count(), 1 + 1 + 2 + 7, "{csv}");
     // The f64 direct render is the reference: zero error against itself.
     assert!(csv.lines().any(|l| l.contains(",direct-f64,") && l.contains(",0.000e0,0.000e0,0,")), "{csv}");
     // Every row has a positive shaded-render time (the last column).
@@ -330,7 +330,7 @@ fn bench_builds_the_levels_asked_for_within_the_triangle_budget() {
         .stdout(predicate::str::contains("| pretess-1 |").and(predicate::str::contains("pretess-3").not()))
         .stderr(predicate::str::contains("pretess-3 skipped: 432 triangles exceed the budget of 200"));
     let csv = std::fs::read_to_string(dir.path().join("bench.csv")).unwrap();
-    assert_eq!(csv.lines().count(), 1 + 1 + 1 + 6, "{csv}");
+    assert_eq!(csv.lines().count(), 1 + 1 + 1 + 7, "{csv}");
     phongrt()
         .args(["bench", "--spheres", "8", "--levels", "0", "--out"])
         .arg(dir.path())
