@@ -2,13 +2,21 @@
 //! classified by the path that decided it, and the traced intersector answers as the plain one.
 use phongrt::phong::accuracy::{generate, Category, SplitMix};
 use phongrt::phong::{intersect, intersect_traced, Method, Patch, TestOutcome, V3};
-use phongrt_cli::profile::profile_scene;
+use phongrt_cli::profile::{profile_scene, RayKind};
 
 #[test]
 fn profile_counts_every_patch_test_once_by_outcome() {
     let m = phongrt::scene::uv_sphere(12, 6, 1.0);
-    let p = profile_scene("sphere", &m, 48, 48, 1).unwrap();
+    let profiles = profile_scene("sphere", &m, 48, 48, 1).unwrap();
+    assert_eq!(profiles.len(), 2);
+    let (p, shadow) = (&profiles[0], &profiles[1]);
+    assert_eq!((p.kind, shadow.kind), (RayKind::Primary, RayKind::Shadow));
     assert_eq!(p.rays, 48 * 48);
+    // A shadow ray for each lit hit, fewer than the primary rays; each is a patch test or more
+    // (it leaves the sphere through the patches around its origin).
+    assert!(shadow.rays > 0 && shadow.rays < p.rays);
+    assert_eq!(shadow.outcomes.iter().map(|o| o.tests).sum::<usize>(), shadow.tests);
+    assert!(shadow.direct_ns_per_ray > 0.0 && shadow.flat_ns_per_ray > 0.0);
     assert!(p.tests > p.rays / 4, "{} tests for {} rays", p.tests, p.rays);
     assert_eq!(p.outcomes.iter().map(|o| o.tests).sum::<usize>(), p.tests);
     // A sphere seen from outside: some tests are turned away by the hull, some certified hits.
@@ -17,6 +25,7 @@ fn profile_counts_every_patch_test_once_by_outcome() {
     assert!(tests_of(TestOutcome::CertifiedHit) > 0);
     assert!(p.outcomes.iter().all(|o| o.ns_per_test > 0.0 && o.ns_per_test.is_finite()));
     assert!(p.patch_ns_per_ray > 0.0 && p.floor_calls_per_ray > 0.0);
+    assert!(p.direct_ns_per_ray > 0.0 && p.flat_ns_per_ray > 0.0 && p.floor_ns_per_ray > 0.0);
 }
 
 #[test]

@@ -339,11 +339,42 @@ fn build(device: &Device, m: &Mesh, method: BenchMethod, robust: bool) -> Result
     Ok((s, own))
 }
 
+/// The shadow ray of the bench's shaded render for the hit `h` of `ray`, towards the
+/// directional `light`, with the cosine it weighs (`None` where the light is behind the surface).
+/// The origin is offset by the hit point's error bound along the normal (pbrt-v4's
+/// OffsetRayOrigin with the renderer's fallback bound for `o + t d`).
+pub fn shadow_ray(ray: &Ray, h: &phongrt::embree::Hit, light: Vec3) -> Option<(Ray, f32)> {
+    use crate::render::world::SurfacePoint;
+    use phongrt::phong::Real;
+    let mut n = h.ng.try_normalize()?;
+    if n.dot(ray.dir) > 0.0 {
+        n = -n;
+    }
+    let cos = n.dot(light);
+    if cos <= 0.0 {
+        return None;
+    }
+    let sp = SurfacePoint {
+        p: ray.at(h.t),
+        p_error: <f32 as Real>::gamma(7) * (ray.org.abs() + (h.t * ray.dir).abs()),
+        ng: n,
+        n,
+        entering: true,
+        terminator: crate::render::Terminator::Plain,
+        lift: Vec3::ZERO,
+    };
+    Some((Ray::new(sp.offset_origin(light), light), cos))
+}
+
+/// The directional light of the bench's shaded render: above, left and behind the camera.
+pub fn bench_light(frame: &crate::render::CameraFrame) -> Vec3 {
+    (frame.up.normalize_or_zero() * 0.8 - frame.right.normalize_or_zero() * 0.5 - frame.forward * 0.6)
+        .normalize()
+}
+
 /// The shaded render of `shaded_ms`: returns the summed radiance (so the work is not optimised
 /// away, and as a cross-check between methods).
 fn shaded(scene: &Scene, frame: &crate::render::CameraFrame, width: u32, height: u32, light: Vec3) -> f64 {
-    use crate::render::world::SurfacePoint;
-    use phongrt::phong::Real;
     let row = |y: u32| -> f64 {
         let mut sum = 0.0f64;
         for x in 0..width {
@@ -351,26 +382,8 @@ fn shaded(scene: &Scene, frame: &crate::render::CameraFrame, width: u32, height:
                 let (ox, oy) = crate::render::sample_offset(x, y, s, SHADED_SPP, 0);
                 let ray = Ray::new(frame.eye, frame.direction(x as f32 + ox, y as f32 + oy, width, height));
                 let Some(h) = scene.intersect1(ray) else { continue };
-                let Some(mut n) = h.ng.try_normalize() else { continue };
-                if n.dot(ray.dir) > 0.0 {
-                    n = -n;
-                }
-                let cos = n.dot(light);
-                if cos <= 0.0 {
-                    continue;
-                }
-                // Offset the shadow ray's origin by the hit point's error bound along the normal
-                // (pbrt-v4's OffsetRayOrigin with the renderer's fallback bound for o + t d).
-                let sp = SurfacePoint {
-                    p: ray.at(h.t),
-                    p_error: <f32 as Real>::gamma(7) * (ray.org.abs() + (h.t * ray.dir).abs()),
-                    ng: n,
-                    n,
-                    entering: true,
-                    terminator: crate::render::Terminator::Plain,
-                    lift: Vec3::ZERO,
-                };
-                if !scene.occluded1(Ray::new(sp.offset_origin(light), light)) {
+                let Some((shadow, cos)) = shadow_ray(&ray, &h, light) else { continue };
+                if !scene.occluded1(shadow) {
                     sum += cos as f64;
                 }
             }
@@ -418,8 +431,6 @@ fn shaded_packets(
     height: u32,
     light: Vec3,
 ) -> f64 {
-    use crate::render::world::SurfacePoint;
-    use phongrt::phong::Real;
     let rows = |by: u32| -> f64 {
         let mut sum = 0.0f64;
         for bx in (0..width).step_by(4) {
@@ -436,25 +447,8 @@ fn shaded_packets(
                 let mut lit = 0u8;
                 for (k, (h, ray)) in hits.iter().zip(&rays).enumerate() {
                     let Some(h) = h else { continue };
-                    let Some(mut n) = h.ng.try_normalize() else { continue };
-                    if n.dot(ray.dir) > 0.0 {
-                        n = -n;
-                    }
-                    cos[k] = n.dot(light);
-                    if cos[k] <= 0.0 {
-                        continue;
-                    }
-                    // The shadow ray of `shaded`.
-                    let sp = SurfacePoint {
-                        p: ray.at(h.t),
-                        p_error: <f32 as Real>::gamma(7) * (ray.org.abs() + (h.t * ray.dir).abs()),
-                        ng: n,
-                        n,
-                        entering: true,
-                        terminator: crate::render::Terminator::Plain,
-                        lift: Vec3::ZERO,
-                    };
-                    shadow[k] = Ray::new(sp.offset_origin(light), light);
+                    let Some((r, c)) = shadow_ray(ray, h, light) else { continue };
+                    (shadow[k], cos[k]) = (r, c);
                     lit |= 1 << k;
                 }
                 let free = lit & !scene.occluded8_rays(&shadow, lit, true);
@@ -586,10 +580,7 @@ pub fn bench_scene(
             std::hint::black_box(depth(&scene, &rays, false));
         }));
         debug_assert_eq!(d_all, d_one);
-        let light = (frame.up.normalize_or_zero() * 0.8
-            - frame.right.normalize_or_zero() * 0.5
-            - frame.forward * 0.6)
-            .normalize();
+        let light = bench_light(&frame);
         let shaded_ms = best_of(TIMING_RUNS, || {
             std::hint::black_box(shaded(&scene, &frame, width, height, light));
         }) * 1e3;

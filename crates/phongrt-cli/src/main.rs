@@ -1038,7 +1038,7 @@ fn bench_cmd(args: cli::BenchArgs) -> anyhow::Result<()> {
     for (name, m) in &scenes {
         bar.set_message(format!("{name}: profile"));
         for k in [1, 8] {
-            profiles.push(phongrt_cli::profile::profile_scene(name, m, args.size, args.size, k)?);
+            profiles.extend(phongrt_cli::profile::profile_scene(name, m, args.size, args.size, k)?);
         }
     }
     bar.finish_and_clear();
@@ -1047,7 +1047,7 @@ fn bench_cmd(args: cli::BenchArgs) -> anyhow::Result<()> {
         "{}\n{}\nPre-tessellation that matches direct Phong's silhouette ({ram} GB of RAM here):\n\n{}\n\
          Pre-tessellation that matches direct Phong's hit distances (median relative error, {ram} GB of RAM here):\n\n{}",
         to_markdown(&rows),
-        phongrt_cli::profile::to_markdown(&profiles, &rows),
+        phongrt_cli::profile::to_markdown(&profiles),
         equal_silhouette_summary(&rows, mem),
         equal_depth_summary(&rows, mem),
         ram = mem.map_or("?".to_string(), |m| format!("{:.1}", m as f64 / 1e9)),

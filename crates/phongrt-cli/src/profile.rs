@@ -1,20 +1,24 @@
-//! `phongrt bench`'s profile of direct Phong: how many patch tests a primary ray costs, what
-//! each kind of test costs, and what is left for Embree's traversal and the callback route.
+//! `phongrt bench`'s profile of direct Phong: how many patch tests a ray costs, what each kind of
+//! test costs, and what is left for Embree's traversal and the callback route; for the bench's
+//! primary rays and for the shadow rays of its shaded render.
 //!
-//! The profile records every call Embree makes into the user geometry while the bench's primary
-//! rays are traced on one thread (cluster, ray, `tnear`, `tfar` as Embree passed them), then
-//! replays the calls outside Embree: once in the recorded order (the cluster work of a frame:
-//! the 8-lane prism test and the patch solves), and the patch solves alone, once per outcome
-//! ([`TestOutcome`]: which path of the solver decided), each timed as the best of a few runs.
+//! The profile records every call Embree makes into the user geometry while the rays are traced
+//! on one thread (primitive, ray, `tnear`, `tfar` as Embree passed them), then replays the calls
+//! outside Embree: once in the recorded order (the patch work of a frame: with clusters, the
+//! 8-lane prism test too), and the patch solves alone, once per outcome ([`TestOutcome`]: which
+//! path of the solver decided), each timed as the best of a few runs. The same rays are timed
+//! through Embree on the Phong mesh, on Embree's triangles of the same mesh, and on the same
+//! triangles as a user geometry with a trivial test (the callback route's floor).
 
 use std::sync::{Arc, Mutex};
 use std::time::Instant;
 
 use glam::Vec3;
 
-use crate::bench::{primary_rays, BenchError, BenchRow};
+use crate::bench::{bench_light, primary_rays, shadow_ray, BenchError};
 use phongrt::embree::{
-    Device, PatchTest, PhongMesh, PrimHit, Ray, Scene, UserGeometryOptions, UserPrimitives, UserTriangles,
+    Device, GeometryOptions, PatchTest, PhongMesh, PrimHit, Ray, Scene, UserGeometryOptions, UserPrimitives,
+    UserTriangles,
 };
 use phongrt::phong::{intersect_in_hull_traced, intersect_traced, TestOutcome, V3};
 use phongrt::scene::Mesh;
@@ -52,18 +56,57 @@ impl<T: UserPrimitives> UserPrimitives for Recording<T> {
     }
 }
 
-/// The calls Embree makes into `prims` while `rays` are traced one by one on this thread.
-fn record<T: UserPrimitives>(device: &Device, prims: Arc<T>, rays: &[Ray]) -> Result<Vec<Call>, BenchError> {
+/// Which rays a profile traces.
+#[derive(Clone, Copy, Debug, PartialEq, Eq)]
+pub enum RayKind {
+    /// The bench's primary rays, one per pixel centre (`intersect1`).
+    Primary,
+    /// The shadow rays of the bench's shaded render from those hits (`occluded1`).
+    Shadow,
+}
+
+impl RayKind {
+    /// The name in the tables.
+    pub fn name(self) -> &'static str {
+        match self {
+            RayKind::Primary => "primary",
+            RayKind::Shadow => "shadow",
+        }
+    }
+}
+
+/// A scene of `prims` whose calls are logged into the returned log.
+fn recording_scene<T: UserPrimitives>(
+    device: &Device,
+    prims: Arc<T>,
+) -> Result<(Scene, Arc<Mutex<Vec<Call>>>), BenchError> {
     let calls = Arc::new(Mutex::new(Vec::new()));
     let mut scene = Scene::new(device)?;
     scene.attach_user(Recording { inner: prims, calls: calls.clone() }, UserGeometryOptions::default())?;
     scene.commit()?;
+    Ok((scene, calls))
+}
+
+/// Trace `rays` of `kind` through `scene` on this thread.
+fn trace(scene: &Scene, rays: &[Ray], kind: RayKind) {
     for r in rays {
-        std::hint::black_box(scene.intersect1(*r));
+        match kind {
+            RayKind::Primary => {
+                std::hint::black_box(scene.intersect1(*r));
+            }
+            RayKind::Shadow => {
+                std::hint::black_box(scene.occluded1(*r));
+            }
+        }
     }
-    drop(scene);
-    let calls = std::mem::take(&mut *calls.lock().unwrap_or_else(|e| e.into_inner()));
-    Ok(calls)
+}
+
+/// The calls `scene` logs into `log` while `rays` are traced.
+fn calls_of(scene: &Scene, log: &Mutex<Vec<Call>>, rays: &[Ray], kind: RayKind) -> Vec<Call> {
+    let take = || std::mem::take(&mut *log.lock().unwrap_or_else(|e| e.into_inner()));
+    take();
+    trace(scene, rays, kind);
+    take()
 }
 
 /// What one kind of patch test costs.
@@ -77,29 +120,37 @@ pub struct OutcomeCost {
     pub ns_per_test: f64,
 }
 
-/// Where direct Phong's primary-ray time goes on one scene.
+/// Where direct Phong's time goes on one scene, for one kind of ray.
 #[derive(Clone, Debug)]
 pub struct Profile {
     /// The scene's name, as in the bench rows.
     pub scene: String,
+    /// The rays traced.
+    pub kind: RayKind,
     /// Patches per Embree primitive.
     pub cluster_size: usize,
-    /// Primary rays traced.
+    /// Rays traced.
     pub rays: usize,
-    /// Calls Embree made into the Phong geometry (one per cluster of up to 8 patches).
+    /// Calls Embree made into the Phong geometry (one per patch, or per cluster of patches).
     pub calls: usize,
-    /// Patches in the clusters called (each tested by the 8-lane prism test).
+    /// Patches in the primitives called (each tested by its hull, or the cluster's prism test).
     pub members: usize,
-    /// Patch solves (members whose prism the ray entered, before the nearest hit).
+    /// Patch solves (with clusters: the members whose prism the ray entered, up to the hit).
     pub tests: usize,
     /// The solves by outcome, in [`TestOutcome::ALL`] order (outcomes never taken left out).
     pub outcomes: Vec<OutcomeCost>,
-    /// The recorded calls replayed in order, nanoseconds per ray: the frame's cluster work.
+    /// The recorded calls replayed in order, nanoseconds per ray: the frame's patch work.
     pub patch_ns_per_ray: f64,
     /// The 8-lane prism test of a cluster alone, nanoseconds per call (`None` for one patch
     /// per primitive).
     pub prism_ns_per_call: Option<f64>,
-    /// Calls per ray into the floor's user geometry (the same triangles, a trivial test).
+    /// The rays through Embree on the Phong mesh, nanoseconds per ray (best of a few runs).
+    pub direct_ns_per_ray: f64,
+    /// The same rays on Embree's triangles of the mesh.
+    pub flat_ns_per_ray: f64,
+    /// The same rays on the triangles as a user geometry with a trivial test.
+    pub floor_ns_per_ray: f64,
+    /// Calls per ray into the floor's user geometry.
     pub floor_calls_per_ray: f64,
 }
 
@@ -134,28 +185,70 @@ struct Solve {
     dir: Vec3,
 }
 
-/// Profile direct Phong (f32, the render path) on `m` with the bench's primary rays, with
-/// `cluster_size` patches per Embree primitive.
+/// The scenes a profile traces: the Phong mesh (recording), Embree's triangles, the floor
+/// (recording), and a plain scene of the Phong mesh for timing.
+struct Scenes {
+    mesh: Arc<PhongMesh>,
+    recording: (Scene, Arc<Mutex<Vec<Call>>>),
+    direct: Scene,
+    flat: Scene,
+    floor: (Scene, Arc<Mutex<Vec<Call>>>),
+}
+
+impl Scenes {
+    fn new(device: &Device, m: &Mesh, cluster_size: usize) -> Result<Self, BenchError> {
+        let mesh = Arc::new(
+            PhongMesh::builder(&m.positions, &m.normals, &m.indices)
+                .straight_edges(&m.straight_edges())
+                .cluster_size(cluster_size)
+                .build()?,
+        );
+        let mut direct = Scene::new(device)?;
+        direct.attach_phong(mesh.clone(), UserGeometryOptions::default())?;
+        direct.commit()?;
+        let mut flat = Scene::new(device)?;
+        flat.attach_triangles(&m.positions, &m.indices, GeometryOptions::default())?;
+        flat.commit()?;
+        let floor = UserTriangles { positions: m.positions.clone(), indices: m.indices.clone() };
+        Ok(Scenes {
+            recording: recording_scene(device, mesh.clone())?,
+            floor: recording_scene(device, Arc::new(floor))?,
+            mesh,
+            direct,
+            flat,
+        })
+    }
+}
+
+/// Profile direct Phong (f32, the render path) on `m` with the bench's primary rays and the
+/// shadow rays of its shaded render, with `cluster_size` patches per Embree primitive.
 pub fn profile_scene(
     name: &str,
     m: &Mesh,
     width: u32,
     height: u32,
     cluster_size: usize,
-) -> Result<Profile, BenchError> {
+) -> Result<Vec<Profile>, BenchError> {
     let device = Device::new()?;
-    let (_, rays) = primary_rays(name, m, width, height)?;
-    let straight = m.straight_edges();
-    let mesh = Arc::new(
-        PhongMesh::builder(&m.positions, &m.normals, &m.indices)
-            .straight_edges(&straight)
-            .cluster_size(cluster_size)
-            .build()?,
-    );
-    // Compute the calls Embree makes: into the Phong geometry, and into the floor's.
-    let calls = record(&device, mesh.clone(), &rays)?;
-    let floor = UserTriangles { positions: m.positions.clone(), indices: m.indices.clone() };
-    let floor_calls = record(&device, Arc::new(floor), &rays)?.len();
+    let (frame, primary) = primary_rays(name, m, width, height)?;
+    let scenes = Scenes::new(&device, m, cluster_size)?;
+    // Compute the shadow rays of the primary hits.
+    let light = bench_light(&frame);
+    let shadow: Vec<Ray> = primary
+        .iter()
+        .filter_map(|r| shadow_ray(r, &scenes.direct.intersect1(*r)?, light).map(|(s, _)| s))
+        .collect();
+    Ok(vec![
+        profile_rays(name, &scenes, &primary, RayKind::Primary, cluster_size),
+        profile_rays(name, &scenes, &shadow, RayKind::Shadow, cluster_size),
+    ])
+}
+
+/// The profile of `rays` of `kind` on `scenes`.
+fn profile_rays(name: &str, scenes: &Scenes, rays: &[Ray], kind: RayKind, cluster_size: usize) -> Profile {
+    let mesh = &scenes.mesh;
+    let calls = calls_of(&scenes.recording.0, &scenes.recording.1, rays, kind);
+    let floor_calls = calls_of(&scenes.floor.0, &scenes.floor.1, rays, kind).len();
     // Compute the patch solves of each call (the same answer as the callback's), by outcome.
     let mut by_outcome: Vec<Vec<Solve>> = vec![Vec::new(); TestOutcome::ALL.len()];
     let mut members = 0;
@@ -190,9 +283,12 @@ pub fn profile_scene(
     let call = |c: &Call| {
         std::hint::black_box(mesh.intersect(c.prim, c.org, c.dir, c.tnear, c.tfar));
     };
+    // Time the rays through Embree: each scene as the best of a few runs of all the rays.
+    let through = |scene: &Scene| replay_ns(&[()], |_| trace(scene, rays, kind)) / rays.len().max(1) as f64;
     let per_ray = |x: f64| x / rays.len().max(1) as f64;
-    Ok(Profile {
+    Profile {
         scene: name.to_string(),
+        kind,
         cluster_size,
         rays: rays.len(),
         calls: calls.len(),
@@ -205,58 +301,57 @@ pub fn profile_scene(
                 std::hint::black_box(mesh.cluster_entries(c.prim, c.org, c.dir, c.tnear, c.tfar));
             })
         }),
+        direct_ns_per_ray: through(&scenes.direct),
+        flat_ns_per_ray: through(&scenes.flat),
+        floor_ns_per_ray: through(&scenes.floor.0),
         floor_calls_per_ray: per_ray(floor_calls as f64),
-    })
+    }
 }
 
-/// Nanoseconds per primary ray of `method` on `scene`, one thread, from the bench's rows.
-fn ns_per_ray(rows: &[BenchRow], scene: &str, method: &str) -> Option<f64> {
-    rows.iter().find(|r| r.scene == scene && r.method == method).map(|r| 1e3 / r.mrays_1t)
-}
-
-/// Markdown tables of the profiles: per scene, the split of direct Phong's time per ray (with
-/// flat and the floor from `rows`, the same run), then the cost of each kind of patch test.
-pub fn to_markdown(profiles: &[Profile], rows: &[BenchRow]) -> String {
+/// Markdown tables of the profiles: per scene and kind of ray, the split of direct Phong's time
+/// per ray beside flat and the floor on the same rays, then the cost of each kind of patch test.
+pub fn to_markdown(profiles: &[Profile]) -> String {
     let mut s = String::from(
-        "Where direct Phong's primary-ray time goes (1 thread; patch work replayed from the calls \
-         Embree made):\n\n\
-         | scene | patches per primitive | calls per ray | patches hull-tested per ray | patch solves per ray | direct-f32 ns/ray \
-         | cluster work ns/ray | prism test ns/call | traversal + callbacks ns/ray | flat ns/ray \
-         | floor ns/ray | floor calls per ray | callback route ns/call |\n\
-         |---|---|---|---|---|---|---|---|---|---|---|---|---|\n",
+        "Where direct Phong's time goes (1 thread; patch work replayed from the calls Embree made; \
+         flat and the floor traced on the same rays):\n\n\
+         | scene | rays | patches per primitive | calls per ray | patches hull-tested per ray \
+         | patch solves per ray | direct-f32 ns/ray | patch work ns/ray | prism test ns/call \
+         | traversal + callbacks ns/ray | flat ns/ray | direct / flat | floor ns/ray | floor calls per ray \
+         | callback route ns/call |\n\
+         |---|---|---|---|---|---|---|---|---|---|---|---|---|---|---|\n",
     );
-    let na = |x: Option<f64>| x.map_or("?".to_string(), |x| format!("{x:.1}"));
     for p in profiles {
-        let direct = ns_per_ray(rows, &p.scene, "direct-f32");
-        let flat = ns_per_ray(rows, &p.scene, "flat");
-        let floor = ns_per_ray(rows, &p.scene, "user-floor");
-        // What a callback costs beyond the native triangle test, spread over the floor's calls.
-        let route = floor.zip(flat).map(|(a, b)| (a - b) / p.floor_calls_per_ray.max(1e-9));
+        let per_ray = |x: usize| x as f64 / p.rays.max(1) as f64;
+        // What a callback costs beyond Embree's triangle test, spread over the floor's calls.
+        let route = (p.floor_ns_per_ray - p.flat_ns_per_ray) / p.floor_calls_per_ray.max(1e-9);
         s += &format!(
-            "| {} | {} | {:.2} | {:.2} | {:.2} | {} | {:.1} | {} | {} | {} | {} | {:.2} | {} |\n",
+            "| {} | {} | {} | {:.2} | {:.2} | {:.2} | {:.1} | {:.1} | {} | {:.1} | {:.1} | {:.2} | {:.1} | {:.2} | {:.1} |\n",
             p.scene,
+            p.kind.name(),
             p.cluster_size,
-            p.calls as f64 / p.rays.max(1) as f64,
-            p.members as f64 / p.rays.max(1) as f64,
-            p.tests as f64 / p.rays.max(1) as f64,
-            na(direct),
+            per_ray(p.calls),
+            per_ray(p.members),
+            per_ray(p.tests),
+            p.direct_ns_per_ray,
             p.patch_ns_per_ray,
             p.prism_ns_per_call.map_or("-".to_string(), |x| format!("{x:.1}")),
-            na(direct.map(|d| d - p.patch_ns_per_ray)),
-            na(flat),
-            na(floor),
+            p.direct_ns_per_ray - p.patch_ns_per_ray,
+            p.flat_ns_per_ray,
+            p.direct_ns_per_ray / p.flat_ns_per_ray.max(1e-9),
+            p.floor_ns_per_ray,
             p.floor_calls_per_ray,
-            na(route),
+            route,
         );
     }
     s += "\nPatch solves by outcome (each kind replayed alone):\n\n\
-          | scene | patches per primitive | outcome | share of solves | ns per solve | ns per ray |\n\
-          |---|---|---|---|---|---|\n";
+          | scene | rays | patches per primitive | outcome | share of solves | ns per solve | ns per ray |\n\
+          |---|---|---|---|---|---|---|\n";
     for p in profiles {
         for o in &p.outcomes {
             s += &format!(
-                "| {} | {} | {} | {:.1}% | {:.1} | {:.1} |\n",
+                "| {} | {} | {} | {} | {:.1}% | {:.1} | {:.1} |\n",
                 p.scene,
+                p.kind.name(),
                 p.cluster_size,
                 o.outcome.name(),
                 100.0 * o.tests as f64 / p.tests.max(1) as f64,
