@@ -22,11 +22,13 @@
 pub const DEFAULT_ALPHA: f32 = 0.75;
 
 pub mod accuracy;
+pub mod basis;
 pub mod intersect;
 pub mod patch;
 pub mod real;
 pub mod reference;
 
+pub use basis::orthonormal_basis;
 pub use intersect::{intersect, solve_cubic, solve_quadratic, Method, PatchHit};
 pub use patch::{adapt_shading_normal, control_points, Patch, ShadingNormal};
 pub use real::{Real, V3};

@@ -9,8 +9,8 @@ use glam::{Vec2, Vec3};
 use super::texture::Texture;
 use super::{RayCounts, RenderError};
 use phongrt::embree::{Device, GeometryOptions, Hit, PhongMesh, Ray, Scene, UserGeometryOptions};
-use phongrt::phong::Real;
 use phongrt::phong::ShadingNormal;
+use phongrt::phong::{Real, V3};
 use phongrt::rng::SplitMix;
 use phongrt::scene as sc;
 
@@ -973,12 +973,10 @@ impl SurfacePoint {
     }
 }
 
+/// [`phongrt::phong::orthonormal_basis`] on glam vectors: `(t, b)` with `t × b = n` for a unit `n`.
 fn orthonormal_basis(n: Vec3) -> (Vec3, Vec3) {
-    // Duff et al. 2017, "Building an Orthonormal Basis, Revisited".
-    let sign = 1.0f32.copysign(n.z);
-    let a = -1.0 / (sign + n.z);
-    let b = n.x * n.y * a;
-    (Vec3::new(1.0 + sign * n.x * n.x * a, sign * b, -sign * n.x), Vec3::new(b, sign + n.y * n.y * a, -n.y))
+    let (t, b) = phongrt::phong::orthonormal_basis(V3::from(n));
+    (t.into(), b.into())
 }
 
 impl Object {
