@@ -11,14 +11,14 @@ use anyhow::{bail, Context};
 use clap::Parser;
 use glam::Vec3;
 
-use cli::{Cli, Command, InfoArgs, Mode, RenderArgs, StitchArgs};
+use cli::{Cli, Command, InfoArgs, RenderArgs, StitchArgs};
 use phongrt::embree::{self, Device};
 use phongrt::scene::{self, LoadOptions};
 use phongrt_cli::render::image_out::{self, EncodeOptions, ImageFormat, Tile, TilePixels};
-use phongrt_cli::render::scene_file::{LightSection, ModeName, SceneFile};
+use phongrt_cli::render::scene_file::{LightSection, SceneFile};
 use phongrt_cli::render::{
     self, AmbientOcclusion, Camera, Image, Light, ObjectMode, ObjectSettings, RenderExtent, RenderOutput,
-    RenderSettings, Window, World,
+    RenderSettings, SurfaceMode, Window, World,
 };
 
 /// A mistake on the command line (a flag or its value): exit status 2. Everything else (an
@@ -163,10 +163,14 @@ fn parse_object_override(s: &str) -> anyhow::Result<(String, ObjectMode)> {
     let Some((name, mode)) = s.rsplit_once('=') else {
         usage!("--object {s:?}: expected NAME=flat or NAME=phong[:ALPHA]");
     };
-    let mode = match mode.split_once(':') {
-        None if mode == "flat" => ObjectMode::Flat,
-        None if mode == "phong" => ObjectMode::Phong { alpha: phongrt::phong::DEFAULT_ALPHA },
-        Some(("phong", a)) => {
+    let (mode_name, alpha) = match mode.split_once(':') {
+        Some((m, a)) => (m, Some(a)),
+        None => (mode, None),
+    };
+    // The names are --mode's (and the scene file's `mode`).
+    let mode = match (<SurfaceMode as clap::ValueEnum>::from_str(mode_name, false), alpha) {
+        (Ok(m), None) => m.with_alpha(phongrt::phong::DEFAULT_ALPHA),
+        (Ok(SurfaceMode::Phong), Some(a)) => {
             let Ok(alpha) = a.parse::<f32>() else {
                 usage!("--object {s:?}: alpha {a:?} is not a number");
             };
@@ -493,10 +497,7 @@ fn render_cmd(args: RenderArgs) -> anyhow::Result<()> {
         sf.check_object_names(&sf_path, input.meshes.iter().map(|m| m.name.as_str()))?;
     }
     let mut stages = Stages { load: t_start.elapsed().as_secs_f64(), ..Stages::default() };
-    let default_mode = match args.mode {
-        Mode::Flat => ObjectMode::Flat,
-        Mode::Phong => ObjectMode::Phong { alpha: args.alpha },
-    };
+    let default_mode = args.mode.with_alpha(args.alpha);
     let device = Device::new().context("cannot start Embree")?;
     let open_creases = args.open_creases;
 
@@ -511,10 +512,7 @@ fn render_cmd(args: RenderArgs) -> anyhow::Result<()> {
             if let Some(sf) = &sf {
                 for o in sf.objects.iter().filter(|o| o.name == "*" || o.name == mesh.name) {
                     match (o.mode, o.alpha) {
-                        (Some(ModeName::Flat), _) => mode = ObjectMode::Flat,
-                        (Some(ModeName::Phong), a) => {
-                            mode = ObjectMode::Phong { alpha: a.unwrap_or(phongrt::phong::DEFAULT_ALPHA) }
-                        }
+                        (Some(m), a) => mode = m.with_alpha(a.unwrap_or(phongrt::phong::DEFAULT_ALPHA)),
                         (None, Some(a)) => mode = ObjectMode::Phong { alpha: a },
                         (None, None) => {}
                     }

@@ -34,6 +34,8 @@ use serde::Deserialize;
 
 use phongrt::scene::ReadFailure;
 
+use super::world::SurfaceMode;
+
 /// The most a scene file may hold (16 MiB).
 pub const MAX_SCENE_FILE_BYTES: u64 = 16 << 20;
 
@@ -175,19 +177,12 @@ fn sixteen() -> u32 {
     16
 }
 
-#[derive(Debug, Deserialize, Clone, Copy, PartialEq, Eq)]
-#[serde(rename_all = "lowercase")]
-pub enum ModeName {
-    Flat,
-    Phong,
-}
-
 #[derive(Debug, Deserialize, Clone, PartialEq)]
 #[serde(deny_unknown_fields)]
 pub struct ObjectSection {
     /// An object name from the OBJ, or "*" for every object.
     pub name: String,
-    pub mode: Option<ModeName>,
+    pub mode: Option<SurfaceMode>,
     pub alpha: Option<f32>,
     #[serde(default, deserialize_with = "opt_vec3")]
     pub kd: Option<[f32; 3]>,

@@ -14,6 +14,28 @@ use phongrt::phong::{Real, V3};
 use phongrt::rng::SplitMix;
 use phongrt::scene as sc;
 
+/// A surface mode by name, the one set of names the command line (`--mode`, `--object
+/// NAME=MODE`) and scene files (`mode = "..."`) accept: `flat` and `phong`. Phong's shape
+/// factor comes separately; [`SurfaceMode::with_alpha`] joins them into an [`ObjectMode`].
+#[derive(Clone, Copy, Debug, PartialEq, Eq, clap::ValueEnum, serde::Deserialize)]
+#[serde(rename_all = "lowercase")]
+pub enum SurfaceMode {
+    /// Embree's native flat triangles, shaded with interpolated vertex normals.
+    Flat,
+    /// Phong tessellation ray traced directly as an Embree user geometry.
+    Phong,
+}
+
+impl SurfaceMode {
+    /// The object mode: flat, or Phong with shape factor `alpha`.
+    pub fn with_alpha(self, alpha: f32) -> ObjectMode {
+        match self {
+            SurfaceMode::Flat => ObjectMode::Flat,
+            SurfaceMode::Phong => ObjectMode::Phong { alpha },
+        }
+    }
+}
+
 /// How an object's surface is made.
 #[derive(Clone, Copy, Debug, PartialEq)]
 pub enum ObjectMode {
