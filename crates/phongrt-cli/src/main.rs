@@ -736,7 +736,7 @@ fn orbit(c: &Camera, deg: f32) -> Camera {
 /// Write the encoded image: a file replaced only by a complete one, or stdout, every write checked.
 fn write_output(output: &Output, bytes: &[u8]) -> anyhow::Result<()> {
     match output {
-        Output::File(p) => image_out::write_atomically(p, bytes),
+        Output::File(p) => Ok(image_out::write_atomically(p, bytes)?),
         Output::Stdout => {
             let mut out = std::io::stdout().lock();
             out.write_all(bytes).context("-: cannot write the image to stdout")?;
@@ -1055,7 +1055,7 @@ fn save_plot(img: &image::RgbImage, path: &Path) -> anyhow::Result<()> {
     let mut bytes = Vec::new();
     img.write_to(&mut std::io::Cursor::new(&mut bytes), image::ImageFormat::Png)
         .with_context(|| format!("{}: cannot encode PNG", path.display()))?;
-    image_out::write_atomically(path, &bytes)
+    Ok(image_out::write_atomically(path, &bytes)?)
 }
 
 fn report(what: &str, out: &RenderOutput) {
