@@ -21,23 +21,85 @@ use glam::{DVec3, Vec3};
 /// Errors that stop a scene from loading. Each displays as one line naming the file.
 #[derive(Debug, thiserror::Error)]
 pub enum SceneError {
-    /// The cause is part of the message (not also a `source()`, so a chain prints it once).
+    /// The OBJ file cannot be opened or read. The cause is part of the message (not also a
+    /// `source()`, so a chain prints it once).
     #[error("{path}: cannot read: {error}")]
-    Io { path: PathBuf, error: std::io::Error },
+    Io {
+        /// The OBJ file.
+        path: PathBuf,
+        /// Why.
+        error: std::io::Error,
+    },
+    /// The path is a directory, FIFO, device or socket: refused before it is opened, since
+    /// reading it could block or never end.
     #[error("{path}: not a regular file ({kind}); give the path of an OBJ file")]
-    NotRegularFile { path: PathBuf, kind: &'static str },
+    NotRegularFile {
+        /// The path given.
+        path: PathBuf,
+        /// What it is instead, e.g. "a FIFO" or "a directory".
+        kind: &'static str,
+    },
+    /// The OBJ file is larger than [`MAX_OBJ_BYTES`] (refused before it is read).
     #[error("{path}: larger than the {limit_mib} MiB limit for {what}")]
-    TooLarge { path: PathBuf, what: &'static str, limit_mib: u64 },
+    TooLarge {
+        /// The file.
+        path: PathBuf,
+        /// What it was read as ("an OBJ file").
+        what: &'static str,
+        /// The limit, in MiB.
+        limit_mib: u64,
+    },
+    /// A statement that does not parse: a number that is not one, a face corner with more than
+    /// three parts, a `vt` without numbers, too few numbers for `v` or `vn`.
     #[error("{path}:{line}: malformed line: {message}")]
-    Malformed { path: PathBuf, line: usize, message: String },
+    Malformed {
+        /// The OBJ file.
+        path: PathBuf,
+        /// The 1-based line the statement starts on (`\` continuations join later lines to it).
+        line: usize,
+        /// What is wrong, quoting the token (cut by [`cut_token`]).
+        message: String,
+    },
+    /// A face index that is 0, or points past the elements defined before its line (OBJ indices
+    /// refer backwards only).
     #[error("{path}:{line}: {kind} index {index} out of range ({count} defined so far)")]
-    IndexOutOfRange { path: PathBuf, line: usize, kind: String, index: i64, count: usize },
+    IndexOutOfRange {
+        /// The OBJ file.
+        path: PathBuf,
+        /// The face's line.
+        line: usize,
+        /// "vertex", "normal" or "texture coordinate".
+        kind: String,
+        /// The index as written: 1-based, or negative (relative to the last defined).
+        index: i64,
+        /// How many elements of that kind precede the line.
+        count: usize,
+    },
+    /// A `v` or `vn` coordinate that parses but is infinite or NaN.
     #[error("{path}:{line}: coordinate {value:?} is not a finite number")]
-    NonFinite { path: PathBuf, line: usize, value: String },
+    NonFinite {
+        /// The OBJ file.
+        path: PathBuf,
+        /// The statement's line.
+        line: usize,
+        /// The token, quoted and cut by [`cut_token`].
+        value: String,
+    },
+    /// Nothing to render: the file has no faces, or every triangle is degenerate.
     #[error("{path}: no triangles to render{detail}")]
-    Empty { path: PathBuf, detail: String },
+    Empty {
+        /// The OBJ file.
+        path: PathBuf,
+        /// Which of the two, with the count: " (8 vertices, no faces)" or
+        /// " (all 12 faces are degenerate)".
+        detail: String,
+    },
+    /// The file holds a NUL byte: binary data or UTF-16 text, not an OBJ.
     #[error("{path}: binary data (NUL bytes), not an OBJ text file")]
-    NotText { path: PathBuf },
+    NotText {
+        /// The file.
+        path: PathBuf,
+    },
 }
 
 /// The most an OBJ file may hold (1 GiB): more is refused before it is read.
@@ -48,9 +110,12 @@ pub const MAX_MTL_BYTES: u64 = 64 << 20;
 /// Why an input file could not be read whole.
 #[derive(Debug)]
 pub enum ReadFailure {
+    /// Opening or reading failed.
     Io(std::io::Error),
-    /// A FIFO, device, socket or directory: reading it could block or never end.
+    /// A FIFO, device, socket or directory (named: "a FIFO"): reading it could block or never
+    /// end.
     NotRegular(&'static str),
+    /// More bytes than the limit given to [`read_regular_file`].
     TooLarge,
 }
 
@@ -121,16 +186,25 @@ pub fn cut_token(s: &str) -> String {
 /// Where a mesh's normals come from.
 #[derive(Clone, Copy, Debug, PartialEq, Eq)]
 pub enum NormalsSource {
+    /// Every vertex normal is the file's `vn` (normalised).
     FromFile,
+    /// Every vertex normal was computed: angle-weighted face normals, split at creases
+    /// (smoothing groups, or [`LoadOptions::crease_angle_deg`]).
     Computed,
+    /// Some of each: corners without a usable `vn` got computed normals.
     Mixed,
 }
 
 /// A triangle mesh with per-vertex unit normals.
 #[derive(Clone, Debug)]
 pub struct Mesh {
+    /// The OBJ object or group name (`mesh0`, `mesh1`, ... before any `o`/`g`), with
+    /// `/MATERIAL` appended when the group uses several materials.
     pub name: String,
+    /// Vertex positions. A loaded mesh has one vertex per welded position and normal, so a
+    /// position at a crease appears once per normal (see `position_ids`).
     pub positions: Vec<Vec3>,
+    /// Unit vertex normals, one per position.
     pub normals: Vec<Vec3>,
     /// Triangles, counter-clockwise as in the file.
     pub indices: Vec<[u32; 3]>,
@@ -140,6 +214,7 @@ pub struct Mesh {
     pub position_ids: Vec<u32>,
     /// Per triangle edge `i` = (corner `i`, corner `i+1`).
     pub edge_kinds: Vec<[EdgeKind; 3]>,
+    /// Whether the normals came from the file, were computed, or both.
     pub normals_source: NormalsSource,
     /// Per triangle, the texture coordinates `(u, v)` of its corners (OBJ `vt`), kept per corner
     /// so UV seams do not split vertices (and so do not turn smooth edges into creases). Empty
@@ -181,15 +256,24 @@ impl Mesh {
 /// A material, as much of MTL as the renderer uses.
 #[derive(Clone, Debug, PartialEq)]
 pub struct Material {
+    /// The `newmtl` name (`usemtl` refers to it).
     pub name: String,
+    /// Diffuse reflectance (`Kd`, linear RGB).
     pub kd: Vec3,
+    /// Specular reflectance (`Ks`): the highlight with `illum` >= 2, and the mirror with
+    /// `illum` 3, 5 or 7.
     pub ks: Vec3,
+    /// Emission (`Ke`): read, not rendered.
     pub ke: Vec3,
+    /// Specular exponent (`Ns`); 0 = no highlight.
     pub ns: f32,
+    /// Index of refraction (`Ni`), for transmission.
     pub ni: f32,
     /// Opacity `d` (1 = opaque; `Tr` = 1 - `d`).
     pub dissolve: f32,
+    /// The illumination model (`illum`), `None` when the file gives none.
     pub illum: Option<u8>,
+    /// The `map_Kd` texture, resolved against the OBJ file's directory.
     pub diffuse_texture: Option<PathBuf>,
 }
 
@@ -212,26 +296,42 @@ impl Default for Material {
 /// Counts over the whole scene.
 #[derive(Clone, Debug, Default, PartialEq, Eq)]
 pub struct LoadStats {
+    /// Output vertices, over all meshes.
     pub vertices: usize,
+    /// Output triangles, over all meshes (degenerate ones are not among them).
     pub triangles: usize,
-    /// Output vertices whose normal came from the file / was computed.
+    /// Output vertices whose normal came from the file.
     pub normals_from_file: usize,
+    /// Output vertices whose normal was computed.
     pub normals_computed: usize,
+    /// Edges shared by two triangles with the same vertices (one normal per end), counted once.
     pub smooth_edges: usize,
+    /// Edges shared by two triangles whose vertices differ in normal at the same positions,
+    /// counted once.
     pub crease_edges: usize,
+    /// Edges of one triangle only.
     pub border_edges: usize,
+    /// Edge sides on an edge of three or more triangles (each side counted).
     pub nonmanifold_edges: usize,
+    /// Triangles dropped as degenerate (a repeated position after welding, or zero area).
     pub degenerate_skipped: usize,
+    /// File normals of zero length (or not normalisable) that were replaced by computed ones.
     pub zero_normals_replaced: usize,
 }
 
 /// A loaded scene.
 #[derive(Clone, Debug)]
 pub struct Scene {
+    /// The OBJ file (`<name>` for a generated mesh).
     pub path: PathBuf,
+    /// One mesh per object/group and material, in order of first appearance.
     pub meshes: Vec<Mesh>,
+    /// Materials of every `mtllib`, in file order ([`Mesh::material`] indexes this).
     pub materials: Vec<Material>,
+    /// One-line messages about input that was skipped or replaced (unsupported statements,
+    /// degenerate triangles, missing materials or textures), each naming the file.
     pub warnings: Vec<String>,
+    /// Counts over all meshes.
     pub stats: LoadStats,
 }
 

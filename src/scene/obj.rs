@@ -15,7 +15,9 @@ use super::{cut_token, SceneError};
 /// One polygon corner: position index and optional normal index (0-based, resolved).
 #[derive(Clone, Copy, Debug, PartialEq, Eq)]
 pub struct Corner {
+    /// Position index into [`RawObj::positions`].
     pub v: u32,
+    /// Normal index into [`RawObj::normals`], if the corner names one (`v//vn`, `v/vt/vn`).
     pub n: Option<u32>,
     /// Texture coordinate index (0-based, resolved).
     pub t: Option<u32>,
@@ -24,6 +26,7 @@ pub struct Corner {
 /// A polygon as written in the file.
 #[derive(Clone, Debug)]
 pub struct Face {
+    /// The corners in file order (at least 3; shorter `f` lines are counted and skipped).
     pub corners: Vec<Corner>,
     /// Smoothing group (0 = off); `None` where the file never says.
     pub smoothing: Option<u32>,
@@ -31,32 +34,40 @@ pub struct Face {
     pub group: usize,
     /// Material name in effect.
     pub material: Option<String>,
+    /// The 1-based line of the `f` statement, for messages.
     pub line: usize,
 }
 
 /// The parsed file, indices resolved and checked.
 #[derive(Clone, Debug, Default)]
 pub struct RawObj {
+    /// `v` positions, in file order (finite).
     pub positions: Vec<Vec3>,
+    /// `vn` normals as written (finite, not normalised, possibly zero).
     pub normals: Vec<Vec3>,
     /// `vt` coordinates `(u, v)`; NaN where the line was unusable (see `bad_texcoord_line`).
     pub texcoords: Vec<[f32; 2]>,
-    /// The first `vt` line with more than 3 numbers or a non-finite one, and how many there are.
+    /// The first `vt` line with more than 3 numbers or a non-finite one.
     pub bad_texcoord_line: Option<usize>,
+    /// How many `vt` lines are unusable that way.
     pub bad_texcoords: usize,
+    /// Every `f` with at least 3 corners, in file order.
     pub faces: Vec<Face>,
     /// Object/group names in order of appearance (index 0 = "" before any `o`/`g`).
     pub groups: Vec<String>,
+    /// `mtllib` file names as written, in order (resolve with [`resolve_file`]).
     pub mtllibs: Vec<String>,
     /// Statements skipped as unsupported (curves, surfaces, ...).
     pub skipped_statements: usize,
     /// `f` lines with fewer than 3 corners, skipped (as tinyobjloader and Blender do).
     pub short_faces: usize,
-    /// `l` (line) and `p` (point) elements, skipped: they have no surface.
+    /// `l` (line) elements, skipped: they have no surface.
     pub line_elements: usize,
+    /// `p` (point) elements, skipped likewise.
     pub point_elements: usize,
     /// The first skipped element's line, for the warning.
     pub first_skipped_element_line: Option<usize>,
+    /// Whether a `usemtl` came before any `mtllib` (a warning when no `mtllib` follows).
     pub usemtl_without_mtllib: bool,
 }
 
