@@ -15,7 +15,7 @@ use cli::{Cli, Command, InfoArgs, RenderArgs, StitchArgs};
 use phongrt::embree::{self, Device};
 use phongrt::scene::{self, LoadOptions};
 use phongrt_cli::render::image_out::{self, EncodeOptions, ImageFormat, Tile, TilePixels};
-use phongrt_cli::render::scene_file::{LightSection, SceneFile};
+use phongrt_cli::render::scene_file::{self, LightSection, SceneFile};
 use phongrt_cli::render::{
     self, AmbientOcclusion, Camera, Image, Light, ObjectMode, ObjectSettings, RenderExtent, RenderOutput,
     RenderSettings, SurfaceMode, Window, World,
@@ -464,243 +464,316 @@ struct Stages {
     build: f64,
 }
 
-fn render_cmd(args: RenderArgs) -> anyhow::Result<()> {
-    let t_start = Instant::now();
-    // A .toml scene names its OBJ; an OBJ may take a scene file with --scene-file.
-    let is_toml = args.scene.extension().is_some_and(|e| e.eq_ignore_ascii_case("toml"));
-    let (obj_path, sf): (PathBuf, Option<SceneFile>) = if is_toml {
-        let sf = SceneFile::load(&args.scene)?;
-        let obj = sf
-            .obj_path(&args.scene)
-            .with_context(|| format!("{}: obj: missing (the OBJ file to render)", args.scene.display()))?;
-        (obj, Some(sf))
-    } else {
-        let sf = args.scene_file.as_deref().map(SceneFile::load).transpose()?;
-        (args.scene.clone(), sf)
-    };
-    // The scene file's path, for messages.
-    let sf_path = if is_toml { args.scene.clone() } else { args.scene_file.clone().unwrap_or_default() };
-    let plan = plan(&args, sf.as_ref())?;
-    let overrides: Vec<(String, ObjectMode)> =
-        args.objects.iter().map(|s| parse_object_override(s)).collect::<anyhow::Result<_>>()?;
-    let crease = sf.as_ref().and_then(|s| s.crease_angle).unwrap_or(args.load.crease_angle);
-    let input = load(&obj_path, &load_options(crease)?)?;
-    for (name, _) in &overrides {
-        if !(name == "*" || input.meshes.iter().any(|m| m.name == *name)) {
-            usage!(
-                "--object {name:?}: no such object (objects: {})",
-                input.meshes.iter().map(|m| m.name.as_str()).collect::<Vec<_>>().join(", ")
-            );
+/// The OBJ to render and the scene file that goes with it: a .toml scene names its OBJ; an OBJ
+/// may take a scene file with --scene-file.
+struct SceneSource {
+    obj: PathBuf,
+    file: Option<SceneFile>,
+    /// The scene file's path, for messages and relative paths (empty without one).
+    file_path: PathBuf,
+}
+
+impl SceneSource {
+    fn resolve(args: &RenderArgs) -> anyhow::Result<SceneSource> {
+        let is_toml = args.scene.extension().is_some_and(|e| e.eq_ignore_ascii_case("toml"));
+        if is_toml {
+            let sf = SceneFile::load(&args.scene)?;
+            let obj = sf.obj_path(&args.scene).with_context(|| {
+                format!("{}: obj: missing (the OBJ file to render)", args.scene.display())
+            })?;
+            return Ok(SceneSource { obj, file: Some(sf), file_path: args.scene.clone() });
         }
+        let file = args.scene_file.as_deref().map(SceneFile::load).transpose()?;
+        Ok(SceneSource {
+            obj: args.scene.clone(),
+            file,
+            file_path: args.scene_file.clone().unwrap_or_default(),
+        })
     }
-    if let Some(sf) = &sf {
-        sf.check_object_names(&sf_path, input.meshes.iter().map(|m| m.name.as_str()))?;
+}
+
+/// Which mode each object gets: the scene file's `[[object]]` entries over --mode/--alpha,
+/// and --object over both.
+#[derive(Clone)]
+struct ModeRules {
+    default: ObjectMode,
+    file_objects: Vec<scene_file::ObjectSection>,
+    overrides: Vec<(String, ObjectMode)>,
+    straight_creases: bool,
+}
+
+impl ModeRules {
+    /// The settings of `mesh`, or `forced` mode for every object.
+    fn settings(&self, forced: Option<ObjectMode>, mesh: &scene::Mesh) -> ObjectSettings {
+        let straight_creases = self.straight_creases;
+        if let Some(mode) = forced {
+            return ObjectSettings { mode, straight_creases };
+        }
+        let mut mode = self.default;
+        for o in self.file_objects.iter().filter(|o| o.name == "*" || o.name == mesh.name) {
+            match (o.mode, o.alpha) {
+                (Some(m), a) => mode = m.with_alpha(a.unwrap_or(phongrt::phong::DEFAULT_ALPHA)),
+                (None, Some(a)) => mode = ObjectMode::Phong { alpha: a },
+                (None, None) => {}
+            }
+        }
+        for (name, m) in &self.overrides {
+            if name == "*" || *name == mesh.name {
+                mode = *m;
+            }
+        }
+        ObjectSettings { mode, straight_creases }
     }
-    let mut stages = Stages { load: t_start.elapsed().as_secs_f64(), ..Stages::default() };
-    let default_mode = args.mode.with_alpha(args.alpha);
-    let device = Device::new().context("cannot start Embree")?;
-    let open_creases = args.open_creases;
+}
 
-    let settings_for = |forced: Option<ObjectMode>| {
-        let sf = sf.clone();
-        let overrides = overrides.clone();
-        move |_i: usize, mesh: &scene::Mesh| -> ObjectSettings {
-            if let Some(m) = forced {
-                return ObjectSettings { mode: m, straight_creases: !open_creases };
-            }
-            let mut mode = default_mode;
-            if let Some(sf) = &sf {
-                for o in sf.objects.iter().filter(|o| o.name == "*" || o.name == mesh.name) {
-                    match (o.mode, o.alpha) {
-                        (Some(m), a) => mode = m.with_alpha(a.unwrap_or(phongrt::phong::DEFAULT_ALPHA)),
-                        (None, Some(a)) => mode = ObjectMode::Phong { alpha: a },
-                        (None, None) => {}
-                    }
-                }
-            }
-            for (name, m) in &overrides {
-                if name == "*" || *name == mesh.name {
-                    mode = *m;
-                }
-            }
-            ObjectSettings { mode, straight_creases: !open_creases }
-        }
-    };
+/// Every choice of a render, resolved once (the command line over the scene file over the
+/// defaults) and checked, with the mesh loaded: what `run` needs and nothing to decide.
+struct RenderJob {
+    plan: RenderPlan,
+    source: SceneSource,
+    input: scene::Scene,
+    modes: ModeRules,
+    settings: RenderSettings,
+    shading: phongrt::phong::ShadingNormal,
+    terminator: render::Terminator,
+    camera: Camera,
+    ground: Option<render::Ground>,
+    stages: Stages,
+}
 
-    let (width, height) = (plan.width, plan.height);
-    let settings = RenderSettings {
-        width,
-        height,
-        spp: plan.spp,
-        threads: plan.threads,
-        progress: !args.quiet,
-        seed: plan.seed,
-    };
+impl RenderJob {
+    fn resolve(args: &RenderArgs, t_start: Instant) -> anyhow::Result<RenderJob> {
+        // Resolve the scene source and every option that needs no mesh.
+        let source = SceneSource::resolve(args)?;
+        let sf = source.file.as_ref();
+        let plan = plan(args, sf)?;
+        let overrides: Vec<(String, ObjectMode)> =
+            args.objects.iter().map(|s| parse_object_override(s)).collect::<anyhow::Result<_>>()?;
 
-    // Shading choices: the command line over the scene file over the defaults.
-    let sf_render = sf.as_ref().map(|s| &s.render);
-    let shading = args
-        .shading
-        .or(sf_render.and_then(|r| r.shading.as_deref()).and_then(phongrt::phong::ShadingNormal::from_name))
-        .unwrap_or_default();
-    let terminator = args
-        .terminator
-        .or(sf_render.and_then(|r| r.terminator.as_deref()).and_then(render::Terminator::from_name))
-        .unwrap_or_default();
-    // The camera: the default view (up axis detected unless given, three-quarter front view,
-    // --orbit), then the scene file's and the command line's settings over it.
-    let up_given = args.camera.up.or(sf.as_ref().and_then(|s| s.camera.up).map(Vec3::from));
-    let sf_camera = sf.as_ref().map(|s| s.camera.clone()).unwrap_or_default();
-    let single_orbit = if plan.frames.is_some() { None } else { args.farm.orbit };
-    let camera = {
-        let (mut camera, detection) = render::camera::default_view(
-            &input,
-            up_given,
-            single_orbit.or(sf_camera.orbit).unwrap_or(0.0),
-            args.camera.fov.or(sf_camera.fov),
-            width as f32 / height as f32,
-        );
-        if up_given.is_none() {
-            eprintln!("phongrt: {detection}");
-        }
-        // Where each setting came from, for the message when they do not make a camera.
-        let mut from = ["automatic framing".to_string(), "automatic framing".into(), "detection".into()];
-        let in_file = |key: &str| format!("{} camera.{key}", sf_path.display());
-        if let Some(e) = sf_camera.eye {
-            camera.eye = Vec3::from(e);
-            from[0] = in_file("eye");
-        }
-        if let Some(l) = sf_camera.look_at {
-            camera.look_at = Vec3::from(l);
-            from[1] = in_file("look_at");
-        }
-        if sf_camera.up.is_some() {
-            from[2] = in_file("up");
-        }
-        if let Some(e) = args.camera.eye {
-            camera.eye = e;
-            from[0] = "--eye".into();
-        }
-        if let Some(l) = args.camera.look_at {
-            camera.look_at = l;
-            from[1] = "--look-at".into();
-        }
-        if args.camera.up.is_some() {
-            from[2] = "--up".into();
-        }
-        // (A zero image size makes the framing infinite; render() refuses that size itself.)
-        if let Some(p) = camera.problem().filter(|_| width > 0 && height > 0) {
-            let src = match p {
-                render::CameraProblem::EyeAtLookAt(_) | render::CameraProblem::NonFinite { .. } => {
-                    format!("eye from {}, look_at from {}", from[0], from[1])
-                }
-                render::CameraProblem::UpParallel { .. } => {
-                    format!("up from {}, eye from {}, look_at from {}", from[2], from[0], from[1])
-                }
-                render::CameraProblem::Fov(_) if args.camera.fov.is_some() => "--fov".into(),
-                render::CameraProblem::Fov(_) => in_file("fov"),
-            };
-            // A camera made bad by flags is bad usage; one from a file is bad input.
-            if src.contains("--") {
-                usage!("camera: {p} ({src})");
+        // Load the mesh, and check the object names given for it.
+        let crease = sf.and_then(|s| s.crease_angle).unwrap_or(args.load.crease_angle);
+        let input = load(&source.obj, &load_options(crease)?)?;
+        for (name, _) in &overrides {
+            if !(name == "*" || input.meshes.iter().any(|m| m.name == *name)) {
+                usage!(
+                    "--object {name:?}: no such object (objects: {})",
+                    input.meshes.iter().map(|m| m.name.as_str()).collect::<Vec<_>>().join(", ")
+                );
             }
-            bail!("camera: {p} ({src})");
         }
-        camera
-    };
-    let up = camera.up.normalize_or_zero();
-    let sf_ground = sf.as_ref().and_then(|s| s.ground.clone());
-    let ground = (args.ground || sf_ground.is_some()).then(|| {
-        let g = sf_ground.unwrap_or_default();
-        render::Ground { up, height: g.height, kd: g.kd.map_or(render::Ground::default().kd, Vec3::from) }
-    });
+        if let Some(sf) = sf {
+            sf.check_object_names(&source.file_path, input.meshes.iter().map(|m| m.name.as_str()))?;
+        }
+        let stages = Stages { load: t_start.elapsed().as_secs_f64(), ..Stages::default() };
 
-    let build = |forced: Option<ObjectMode>| -> anyhow::Result<World> {
-        let mut world = World::from_scene_with_ground(&device, &input, ground, settings_for(forced))?;
-        world.shading = shading;
-        world.terminator = terminator;
+        // Resolve the surfaces: modes, shading normal, terminator.
+        let modes = ModeRules {
+            default: args.mode.with_alpha(args.alpha),
+            file_objects: sf.map(|s| s.objects.clone()).unwrap_or_default(),
+            overrides,
+            straight_creases: !args.open_creases,
+        };
+        let sf_render = sf.map(|s| &s.render);
+        let shading = args
+            .shading
+            .or(sf_render
+                .and_then(|r| r.shading.as_deref())
+                .and_then(phongrt::phong::ShadingNormal::from_name))
+            .unwrap_or_default();
+        let terminator = args
+            .terminator
+            .or(sf_render.and_then(|r| r.terminator.as_deref()).and_then(render::Terminator::from_name))
+            .unwrap_or_default();
+
+        // Resolve the camera and the ground under it.
+        let camera = resolve_camera(args, &source, &plan, &input)?;
+        let up = camera.up.normalize_or_zero();
+        let sf_ground = sf.and_then(|s| s.ground.clone());
+        let ground = (args.ground || sf_ground.is_some()).then(|| {
+            let g = sf_ground.unwrap_or_default();
+            render::Ground { up, height: g.height, kd: g.kd.map_or(render::Ground::default().kd, Vec3::from) }
+        });
+        let settings = RenderSettings {
+            width: plan.width,
+            height: plan.height,
+            spp: plan.spp,
+            threads: plan.threads,
+            progress: !args.quiet,
+            seed: plan.seed,
+        };
+        Ok(RenderJob { plan, source, input, modes, settings, shading, terminator, camera, ground, stages })
+    }
+
+    /// The world to render: every object in its mode (or all in `forced`), the key light
+    /// following the camera unless the scene file places lights, and the scene file's settings.
+    fn world(&self, device: &Device, forced: Option<ObjectMode>) -> anyhow::Result<World> {
+        let mut world = World::from_scene_with_ground(device, &self.input, self.ground, |_, mesh| {
+            self.modes.settings(forced, mesh)
+        })?;
+        world.shading = self.shading;
+        world.terminator = self.terminator;
         if forced.is_none() {
             for w in &world.warnings {
                 eprintln!("phongrt: warning: {w}");
             }
         }
-        // The key light follows the camera, unless the scene file places lights.
         world.lights = vec![Light::Directional {
-            direction: camera.key_light_direction(),
+            direction: self.camera.key_light_direction(),
             radiance: Vec3::splat(0.85),
             shadows: true,
         }];
-        if let Some(sf) = &sf {
-            apply_scene_file(&mut world, sf);
-            if let Some(e) = &sf.environment {
-                let source = match (&e.color, &e.map) {
-                    (Some(c), _) => render::EnvironmentSource::Constant(Vec3::from(*c)),
-                    (None, Some(m)) => {
-                        let base = if is_toml {
-                            args.scene.parent()
-                        } else {
-                            args.scene_file.as_deref().and_then(Path::parent)
-                        };
-                        let path = base.unwrap_or(Path::new(".")).join(m);
-                        let texture = render::Environment::load_map(&path).map_err(anyhow::Error::msg)?;
-                        render::EnvironmentSource::Map { texture: std::sync::Arc::new(texture), up }
-                    }
-                    (None, None) => bail!("environment: give color or map"),
-                };
-                world.environment = Some(render::Environment { source, samples: e.samples.unwrap_or(16) });
-            }
+        let Some(sf) = &self.source.file else {
+            return Ok(world);
+        };
+        apply_scene_file(&mut world, sf);
+        if let Some(e) = &sf.environment {
+            let source = match (&e.color, &e.map) {
+                (Some(c), _) => render::EnvironmentSource::Constant(Vec3::from(*c)),
+                (None, Some(m)) => {
+                    let path = self.source.file_path.parent().unwrap_or(Path::new(".")).join(m);
+                    let texture = render::Environment::load_map(&path).map_err(anyhow::Error::msg)?;
+                    let up = self.camera.up.normalize_or_zero();
+                    render::EnvironmentSource::Map { texture: std::sync::Arc::new(texture), up }
+                }
+                (None, None) => bail!("environment: give color or map"),
+            };
+            world.environment = Some(render::Environment { source, samples: e.samples.unwrap_or(16) });
         }
         Ok(world)
-    };
-
-    if args.compare {
-        // Flat everywhere on the left; on the right each object as a plain render makes it (the
-        // scene file's and --object's per-object mode and alpha).
-        let t = Instant::now();
-        let flat = build(Some(ObjectMode::Flat))?;
-        let phong = build(None)?;
-        stages.build = t.elapsed().as_secs_f64();
-        eprintln!("phongrt: {}", phong.effects());
-        let a = render::render(&flat, &camera, &settings)?;
-        report("flat", &a);
-        let b = render::render(&phong, &camera, &settings)?;
-        report("phong", &b);
-        let ms = |o: &RenderOutput| o.elapsed.as_secs_f64() * 1e3;
-        let img = render::compare_panel(
-            &a.image,
-            &b.image,
-            &format!("flat {:.1} ms", ms(&a)),
-            &format!("phong {:.1} ms ({:.2}x)", ms(&b), ms(&b) / ms(&a).max(1e-9)),
-        );
-        let t = Instant::now();
-        let bytes = image_out::encode(&img, plan.format, &EncodeOptions::default())?;
-        write_output(&plan.output, &bytes)?;
-        let write = t.elapsed().as_secs_f64();
-        eprintln!("phongrt: wrote {} (flat | phong | difference)", plan.output.name());
-        let frames = [
-            frame_stats(&plan, None, &plan.output, &a, write),
-            frame_stats(&plan, None, &plan.output, &b, 0.0),
-        ];
-        return write_stats(&plan, &stages, &phong, &frames, t_start);
     }
+}
 
+/// The camera: the default view (up axis detected unless given, three-quarter front view,
+/// --orbit), then the scene file's and the command line's settings over it. A camera that makes
+/// no image is an error naming where each setting came from.
+fn resolve_camera(
+    args: &RenderArgs,
+    source: &SceneSource,
+    plan: &RenderPlan,
+    input: &scene::Scene,
+) -> anyhow::Result<Camera> {
+    let sf = source.file.as_ref();
+    let (width, height) = (plan.width, plan.height);
+    let up_given = args.camera.up.or(sf.and_then(|s| s.camera.up).map(Vec3::from));
+    let sf_camera = sf.map(|s| s.camera.clone()).unwrap_or_default();
+    let single_orbit = if plan.frames.is_some() { None } else { args.farm.orbit };
+    let (mut camera, detection) = render::camera::default_view(
+        input,
+        up_given,
+        single_orbit.or(sf_camera.orbit).unwrap_or(0.0),
+        args.camera.fov.or(sf_camera.fov),
+        width as f32 / height as f32,
+    );
+    if up_given.is_none() {
+        eprintln!("phongrt: {detection}");
+    }
+    // Apply the settings, noting where each came from.
+    let mut from = ["automatic framing".to_string(), "automatic framing".into(), "detection".into()];
+    let in_file = |key: &str| format!("{} camera.{key}", source.file_path.display());
+    if let Some(e) = sf_camera.eye {
+        camera.eye = Vec3::from(e);
+        from[0] = in_file("eye");
+    }
+    if let Some(l) = sf_camera.look_at {
+        camera.look_at = Vec3::from(l);
+        from[1] = in_file("look_at");
+    }
+    if sf_camera.up.is_some() {
+        from[2] = in_file("up");
+    }
+    if let Some(e) = args.camera.eye {
+        camera.eye = e;
+        from[0] = "--eye".into();
+    }
+    if let Some(l) = args.camera.look_at {
+        camera.look_at = l;
+        from[1] = "--look-at".into();
+    }
+    if args.camera.up.is_some() {
+        from[2] = "--up".into();
+    }
+    // Check it. (A zero image size makes the framing infinite; render() refuses that size itself.)
+    if let Some(p) = camera.problem().filter(|_| width > 0 && height > 0) {
+        let src = match p {
+            render::CameraProblem::EyeAtLookAt(_) | render::CameraProblem::NonFinite { .. } => {
+                format!("eye from {}, look_at from {}", from[0], from[1])
+            }
+            render::CameraProblem::UpParallel { .. } => {
+                format!("up from {}, eye from {}, look_at from {}", from[2], from[0], from[1])
+            }
+            render::CameraProblem::Fov(_) if args.camera.fov.is_some() => "--fov".into(),
+            render::CameraProblem::Fov(_) => in_file("fov"),
+        };
+        // A camera made bad by flags is bad usage; one from a file is bad input.
+        if src.contains("--") {
+            usage!("camera: {p} ({src})");
+        }
+        bail!("camera: {p} ({src})");
+    }
+    Ok(camera)
+}
+
+fn render_cmd(args: RenderArgs) -> anyhow::Result<()> {
+    let t_start = Instant::now();
+    let job = RenderJob::resolve(&args, t_start)?;
+    let device = Device::new().context("cannot start Embree")?;
+    if args.compare {
+        run_compare(job, &device, t_start)
+    } else {
+        run_frames(job, &device, t_start)
+    }
+}
+
+/// `--compare`: flat everywhere on the left; on the right each object as a plain render makes
+/// it (the scene file's and --object's per-object mode and alpha); their difference.
+fn run_compare(mut job: RenderJob, device: &Device, t_start: Instant) -> anyhow::Result<()> {
     let t = Instant::now();
-    let world = build(None)?;
-    stages.build = t.elapsed().as_secs_f64();
+    let flat = job.world(device, Some(ObjectMode::Flat))?;
+    let phong = job.world(device, None)?;
+    job.stages.build = t.elapsed().as_secs_f64();
+    eprintln!("phongrt: {}", phong.effects());
+    let a = render::render(&flat, &job.camera, &job.settings)?;
+    report("flat", &a);
+    let b = render::render(&phong, &job.camera, &job.settings)?;
+    report("phong", &b);
+    let ms = |o: &RenderOutput| o.elapsed.as_secs_f64() * 1e3;
+    let img = render::compare_panel(
+        &a.image,
+        &b.image,
+        &format!("flat {:.1} ms", ms(&a)),
+        &format!("phong {:.1} ms ({:.2}x)", ms(&b), ms(&b) / ms(&a).max(1e-9)),
+    );
+    let plan = &job.plan;
+    let t = Instant::now();
+    let bytes = image_out::encode(&img, plan.format, &EncodeOptions::default())?;
+    write_output(&plan.output, &bytes)?;
+    let write = t.elapsed().as_secs_f64();
+    eprintln!("phongrt: wrote {} (flat | phong | difference)", plan.output.name());
+    let frames =
+        [frame_stats(plan, None, &plan.output, &a, write), frame_stats(plan, None, &plan.output, &b, 0.0)];
+    write_stats(plan, &job.stages, &phong, &frames, t_start)
+}
+
+/// Every frame of the plan (one without --frames), each written as soon as it is rendered.
+fn run_frames(mut job: RenderJob, device: &Device, t_start: Instant) -> anyhow::Result<()> {
+    let t = Instant::now();
+    let world = job.world(device, None)?;
+    job.stages.build = t.elapsed().as_secs_f64();
     eprintln!("phongrt: {}", world.effects());
-    let base = camera;
+    let plan = &job.plan;
     let extent = RenderExtent { crop: plan.crop, alpha: plan.alpha };
     let mut frames = Vec::new();
     for (k, output) in plan.outputs() {
         // Compute the frame's camera: an orbit of the eye about the look-at point.
         let camera = match (k, plan.frames) {
-            (Some(k), Some(f)) => orbit(&base, f.orbit_deg * k as f32 / f.count as f32),
-            _ => base,
+            (Some(k), Some(f)) => orbit(&job.camera, f.orbit_deg * k as f32 / f.count as f32),
+            _ => job.camera,
         };
         if let Some(p) = camera.problem() {
             bail!("camera of frame {}: {p} (the orbit of --frames)", k.unwrap_or(0));
         }
-        let out = render::render_extent(&world, &camera, &settings, &extent)?;
+        // Render, encode and write it.
+        let out = render::render_extent(&world, &camera, &job.settings, &extent)?;
         let t = Instant::now();
         let window = out.window;
         let opts =
@@ -718,9 +791,9 @@ fn render_cmd(args: RenderArgs) -> anyhow::Result<()> {
             );
         }
         report(&output.name(), &out);
-        frames.push(frame_stats(&plan, k, &output, &out, write));
+        frames.push(frame_stats(plan, k, &output, &out, write));
     }
-    write_stats(&plan, &stages, &world, &frames, t_start)
+    write_stats(plan, &job.stages, &world, &frames, t_start)
 }
 
 /// The camera turned by `deg` about its up vector, around the look-at point.
