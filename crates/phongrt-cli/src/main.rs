@@ -314,32 +314,7 @@ fn gb(bytes: u64) -> String {
 
 /// Resolve and check every option that needs no mesh: all of it happens before loading.
 fn plan(args: &RenderArgs, sf: Option<&SceneFile>) -> anyhow::Result<RenderPlan> {
-    anyhow::ensure!(
-        (0.0..=1.0).contains(&args.alpha),
-        Usage(format!("--alpha {} is not in [0, 1]", args.alpha))
-    );
-    for (flag, v) in [("--width", args.width), ("--height", args.height)] {
-        if let Some(v) = v {
-            if v == 0 || v > 1 << 15 {
-                usage!("{flag} {v}: image size is out of range (1..=32768 per side)");
-            }
-        }
-    }
-    if let Some(s) = args.spp {
-        if s == 0 || s > 1 << 16 {
-            usage!("--spp {s}: samples per pixel is out of range (1..=65536)");
-        }
-    }
-    if let Some(f) = args.camera.fov {
-        if !(f > 0.0 && f < 180.0) {
-            usage!("--fov {f}: the field of view is not in (0, 180) degrees");
-        }
-    }
-    if let Some(u) = args.camera.up {
-        if u.length_squared() == 0.0 {
-            usage!("--up 0,0,0: the up vector must not be zero");
-        }
-    }
+    check_flag_ranges(args)?;
     let width = args.width.or(sf.and_then(|s| s.render.width)).unwrap_or(800);
     let height = args.height.or(sf.and_then(|s| s.render.height)).unwrap_or(600);
     let spp = args.spp.or(sf.and_then(|s| s.render.spp)).unwrap_or(1);
@@ -356,77 +331,15 @@ fn plan(args: &RenderArgs, sf: Option<&SceneFile>) -> anyhow::Result<RenderPlan>
         usage!("--compare renders one whole frame: it does not combine with --crop, --tile, --frames or --alpha-channel");
     }
 
-    // Compute the frames.
-    if let Some(deg) = f.orbit.filter(|d| !d.is_finite()) {
-        usage!("--orbit {deg}: not a finite number of degrees");
-    }
-    let frames = match f.frames {
-        None => None,
-        Some(0) => usage!("--frames 0: must be at least 1"),
-        Some(n) => {
-            if let Some(k) = f.frame {
-                if k >= n {
-                    usage!("--frame {k}: out of range for --frames {n} (0..={})", n - 1);
-                }
-            }
-            Some(Frames { count: n, only: f.frame, orbit_deg: f.orbit.unwrap_or(360.0) })
-        }
-    };
-
-    // Compute the threads: at least 1, at most what the machine has.
-    let threads = match args.threads {
-        Some(0) => usage!("--threads 0: must be at least 1 (leave it out to use every core)"),
-        Some(t) => {
-            let cores = std::thread::available_parallelism().map_or(1, |n| n.get());
-            if t > cores {
-                eprintln!("phongrt: warning: --threads {t}: this machine has {cores} cores; using {cores}");
-                Some(cores)
-            } else {
-                Some(t)
-            }
-        }
-        None => None,
-    };
+    // Compute the frames and the threads.
+    let frames = plan_frames(f)?;
+    let threads = plan_threads(args.threads)?;
 
     // Check the output (and the stats file) before any work.
     let output =
         if args.output.as_os_str() == "-" { Output::Stdout } else { Output::File(args.output.clone()) };
-    let plan_frames = frames;
-    let format = match &output {
-        Output::Stdout => {
-            if std::io::IsTerminal::is_terminal(&std::io::stdout()) {
-                usage!("-o -: stdout is a terminal; redirect it to a file or a pipe");
-            }
-            if plan_frames.is_some_and(|f| f.only.is_none() && f.count > 1) {
-                usage!(
-                    "-o -: {} frames cannot all go to stdout; pick one with --frame I",
-                    plan_frames.map_or(0, |f| f.count)
-                );
-            }
-            ImageFormat::Png
-        }
-        Output::File(p) => {
-            let fmt = ImageFormat::from_path(p).map_err(|e| Usage(format!("-o {}: {e}", p.display())))?;
-            let first = match plan_frames {
-                Some(fr) => frame_path(p, fr.only.unwrap_or(0)),
-                None => p.clone(),
-            };
-            image_out::check_writable(&first)?;
-            fmt
-        }
-    };
-    let stats = match f.stats.as_deref() {
-        None => None,
-        Some("json") => Some(StatsTarget::Print),
-        Some(file) => {
-            let p = PathBuf::from(file);
-            let dir = p.parent().filter(|d| !d.as_os_str().is_empty()).unwrap_or(Path::new("."));
-            if !dir.is_dir() {
-                usage!("--stats {file}: directory {} does not exist", dir.display());
-            }
-            Some(StatsTarget::File(p))
-        }
-    };
+    let format = check_output(&output, frames)?;
+    let stats = plan_stats(f.stats.as_deref())?;
 
     // Estimate the memory before starting.
     let pixels = crop.map_or(width as u64 * height as u64, |c| c.width() as u64 * c.height() as u64)
@@ -455,6 +368,118 @@ fn plan(args: &RenderArgs, sf: Option<&SceneFile>) -> anyhow::Result<RenderPlan>
         stats,
         alpha: f.alpha_channel,
     })
+}
+
+/// The ranges of --alpha, --width, --height, --spp, --fov and --up (the scene file's values
+/// are checked when it is read).
+fn check_flag_ranges(args: &RenderArgs) -> anyhow::Result<()> {
+    anyhow::ensure!(
+        (0.0..=1.0).contains(&args.alpha),
+        Usage(format!("--alpha {} is not in [0, 1]", args.alpha))
+    );
+    for (flag, v) in [("--width", args.width), ("--height", args.height)] {
+        if let Some(v) = v {
+            if v == 0 || v > 1 << 15 {
+                usage!("{flag} {v}: image size is out of range (1..=32768 per side)");
+            }
+        }
+    }
+    if let Some(s) = args.spp {
+        if s == 0 || s > 1 << 16 {
+            usage!("--spp {s}: samples per pixel is out of range (1..=65536)");
+        }
+    }
+    if let Some(f) = args.camera.fov {
+        if !(f > 0.0 && f < 180.0) {
+            usage!("--fov {f}: the field of view is not in (0, 180) degrees");
+        }
+    }
+    if let Some(u) = args.camera.up {
+        if u.length_squared() == 0.0 {
+            usage!("--up 0,0,0: the up vector must not be zero");
+        }
+    }
+    Ok(())
+}
+
+/// --frames, --frame and --orbit.
+fn plan_frames(f: &cli::FarmArgs) -> anyhow::Result<Option<Frames>> {
+    if let Some(deg) = f.orbit.filter(|d| !d.is_finite()) {
+        usage!("--orbit {deg}: not a finite number of degrees");
+    }
+    match f.frames {
+        None => Ok(None),
+        Some(0) => usage!("--frames 0: must be at least 1"),
+        Some(n) => {
+            if let Some(k) = f.frame {
+                if k >= n {
+                    usage!("--frame {k}: out of range for --frames {n} (0..={})", n - 1);
+                }
+            }
+            Ok(Some(Frames { count: n, only: f.frame, orbit_deg: f.orbit.unwrap_or(360.0) }))
+        }
+    }
+}
+
+/// --threads: at least 1, at most what the machine has (more is a warning).
+fn plan_threads(threads: Option<usize>) -> anyhow::Result<Option<usize>> {
+    match threads {
+        Some(0) => usage!("--threads 0: must be at least 1 (leave it out to use every core)"),
+        Some(t) => {
+            let cores = std::thread::available_parallelism().map_or(1, |n| n.get());
+            if t > cores {
+                eprintln!("phongrt: warning: --threads {t}: this machine has {cores} cores; using {cores}");
+                Ok(Some(cores))
+            } else {
+                Ok(Some(t))
+            }
+        }
+        None => Ok(None),
+    }
+}
+
+/// The output's format, once it is known to be writable (the first frame's file, with
+/// --frames); stdout takes one PNG and must not be a terminal.
+fn check_output(output: &Output, frames: Option<Frames>) -> anyhow::Result<ImageFormat> {
+    match output {
+        Output::Stdout => {
+            if std::io::IsTerminal::is_terminal(&std::io::stdout()) {
+                usage!("-o -: stdout is a terminal; redirect it to a file or a pipe");
+            }
+            if frames.is_some_and(|f| f.only.is_none() && f.count > 1) {
+                usage!(
+                    "-o -: {} frames cannot all go to stdout; pick one with --frame I",
+                    frames.map_or(0, |f| f.count)
+                );
+            }
+            Ok(ImageFormat::Png)
+        }
+        Output::File(p) => {
+            let fmt = ImageFormat::from_path(p).map_err(|e| Usage(format!("-o {}: {e}", p.display())))?;
+            let first = match frames {
+                Some(fr) => frame_path(p, fr.only.unwrap_or(0)),
+                None => p.clone(),
+            };
+            image_out::check_writable(&first)?;
+            Ok(fmt)
+        }
+    }
+}
+
+/// --stats: `json` (printed) or a file in an existing directory.
+fn plan_stats(stats: Option<&str>) -> anyhow::Result<Option<StatsTarget>> {
+    match stats {
+        None => Ok(None),
+        Some("json") => Ok(Some(StatsTarget::Print)),
+        Some(file) => {
+            let p = PathBuf::from(file);
+            let dir = p.parent().filter(|d| !d.as_os_str().is_empty()).unwrap_or(Path::new("."));
+            if !dir.is_dir() {
+                usage!("--stats {file}: directory {} does not exist", dir.display());
+            }
+            Ok(Some(StatsTarget::File(p)))
+        }
+    }
 }
 
 /// Stage times of one run, in seconds.
