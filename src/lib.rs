@@ -22,6 +22,7 @@
 // (or Rust) guarantee it relies on, also inside `unsafe fn`.
 #![deny(unsafe_op_in_unsafe_fn)]
 #![warn(clippy::undocumented_unsafe_blocks)]
+#![warn(missing_docs)]
 
 pub mod embree;
 pub mod mesh;

@@ -9,7 +9,9 @@ use glam::Vec3;
 use phongrt::embree::Device;
 use phongrt::scene::{uv_sphere, Material, Scene};
 use phongrt_cli::render::scene_file::SceneFile;
-use phongrt_cli::render::{render, Camera, Light, ObjectMode, ObjectSettings, RenderSettings, World};
+use phongrt_cli::render::{
+    render, Camera, Light, ObjectMode, ObjectSettings, RenderSettings, SurfaceMode, World,
+};
 
 fn settings(w: u32, threads: Option<usize>) -> RenderSettings {
     RenderSettings { width: w, height: w, spp: 1, threads, progress: false, seed: 0, packets: true }
@@ -196,6 +198,21 @@ fn scene_file_errors_name_file_key_and_problem() {
     }
     let ok = SceneFile::parse("obj = \"a.obj\"\n[[object]]\nname = \"*\"\nmode = \"flat\"\n", p).unwrap();
     assert_eq!(ok.obj_path(p).unwrap(), Path::new("scenes/a.obj"));
+}
+
+#[test]
+fn scene_file_mode_takes_the_command_line_mode_names() {
+    use clap::ValueEnum;
+    for &m in SurfaceMode::value_variants() {
+        let name = m.to_possible_value().unwrap().get_name().to_string();
+        let text = format!("[[object]]\nname = \"*\"\nmode = \"{name}\"\n");
+        let sf = SceneFile::parse(&text, Path::new("s.toml")).unwrap();
+        assert_eq!(sf.objects[0].mode, Some(m), "mode = {name:?}");
+    }
+    let e = SceneFile::parse("[[object]]\nname = \"*\"\nmode = \"smooth\"\n", Path::new("s.toml"))
+        .unwrap_err()
+        .to_string();
+    assert!(e.contains("s.toml") && e.contains("`flat`") && e.contains("`phong`"), "{e}");
 }
 
 /// A camera inside the closed Stanford bunny (69,666 triangles, many of them slivers) sees no

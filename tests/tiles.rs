@@ -1,6 +1,7 @@
 //! Crop, tiles and stitch: the stitched image is bit-identical to the single-machine render,
 //! whatever the tile count and thread count; frames, seeds and stats; bad farm flags are one
-//! line naming the flag and the value, with exit status 2.
+//! line naming the flag and the value, with exit status 2; image read/write errors are typed
+//! and name the file.
 use std::path::{Path, PathBuf};
 
 use assert_cmd::Command;
@@ -231,4 +232,51 @@ fn stats_json_counts_rays_by_kind_with_stage_times_and_effects() {
     let v: serde_json::Value = serde_json::from_str(&std::fs::read_to_string(&stats).unwrap()).unwrap();
     assert_eq!(v["frames"][0]["rays"]["primary"], 200);
     assert_eq!(v["frames"][0]["output"], "-");
+}
+
+#[test]
+fn image_errors_are_typed_one_line_and_name_the_file() {
+    use phongrt_cli::render::image_out::{
+        check_writable, encode, read_tile, write_atomically, EncodeOptions, ImageError, ImageFormat,
+    };
+    use phongrt_cli::render::Image;
+    use std::error::Error;
+    let dir = tempfile::tempdir().unwrap();
+    let d = dir.path();
+
+    // Compute each failure and its message.
+    let is_dir = write_atomically(d, b"x").unwrap_err();
+    assert!(matches!(is_dir, ImageError::IsDirectory { .. }), "{is_dir:?}");
+    assert_eq!(is_dir.to_string(), format!("{}: is a directory", d.display()));
+
+    let no_dir = check_writable(&d.join("none/x.png")).unwrap_err();
+    assert!(matches!(no_dir, ImageError::NoDirectory { .. }), "{no_dir:?}");
+    assert_eq!(
+        no_dir.to_string(),
+        format!("{}: directory {} does not exist", d.join("none/x.png").display(), d.join("none").display())
+    );
+
+    let ext = ImageFormat::from_path(Path::new("x.bmp")).unwrap_err();
+    assert!(matches!(ext, ImageError::UnknownExtension { .. }), "{ext:?}");
+    assert_eq!(ext.to_string(), "x.bmp: unknown image extension (use .png or .exr)");
+
+    // An I/O or codec cause is the source, not repeated in the message.
+    let missing = read_tile(&d.join("missing.png")).unwrap_err();
+    assert!(matches!(missing, ImageError::Read { .. }), "{missing:?}");
+    assert_eq!(missing.to_string(), format!("{}: cannot read", d.join("missing.png").display()));
+    assert!(missing.source().is_some_and(|s| s.to_string().contains("No such file")), "{missing:?}");
+
+    let text = d.join("text.png");
+    std::fs::write(&text, "hello").unwrap();
+    let bad = read_tile(&text).unwrap_err();
+    assert!(matches!(bad, ImageError::DecodePng { .. }), "{bad:?}");
+    assert_eq!(bad.to_string(), format!("{}: not a readable PNG", text.display()));
+    assert!(bad.source().is_some(), "{bad:?}");
+
+    let alpha = [1.0f32; 3];
+    let short =
+        encode(&Image::new(2, 2), ImageFormat::Png, &EncodeOptions { alpha: Some(&alpha), window: None })
+            .unwrap_err();
+    assert!(matches!(short, ImageError::AlphaLength { alpha: 3, pixels: 4 }), "{short:?}");
+    assert_eq!(short.to_string(), "alpha has 3 values for 4 pixels");
 }

@@ -19,22 +19,38 @@ use crate::sys;
 /// Why a Phong mesh was refused. Each displays as one line naming the vertex, triangle or value.
 #[derive(Debug, Clone, thiserror::Error)]
 pub enum PhongMeshError {
+    /// The normal array's length differs from the position array's (normals, positions).
     #[error("{0} normals for {1} positions (need one per vertex)")]
     NormalCount(usize, usize),
+    /// A triangle refers to a vertex past the end of the arrays.
     #[error("triangle {tri} has vertex index {index}, but there are {count} vertices")]
-    Index { tri: usize, index: u32, count: usize },
+    Index {
+        /// The triangle.
+        tri: usize,
+        /// Its out-of-range vertex index.
+        index: u32,
+        /// The number of vertices.
+        count: usize,
+    },
+    /// The shape factor is outside [0, 1] (or NaN).
     #[error("alpha {0} is not in [0, 1]")]
     Alpha(f32),
+    /// A vertex's position or normal has a NaN or infinite coordinate.
     #[error("vertex {0} has a non-finite position or normal")]
     NonFinite(usize),
+    /// A vertex normal is the zero vector.
     #[error("vertex {0} has a zero normal (its triangles could never be hit)")]
     ZeroNormal(usize),
+    /// The straight-edge flags are not one triple per triangle (flags, triangles).
     #[error("{0} per-triangle straight-edge flags for {1} triangles")]
     EdgeFlagCount(usize, usize),
+    /// The weld tolerance is negative, NaN or infinite.
     #[error("weld tolerance {0} is not a finite number >= 0")]
     WeldTolerance(f32),
+    /// More triangles than a u32 primID can number.
     #[error("{0} triangles: more than a u32 primID can count")]
     TooManyTriangles(usize),
+    /// The patches per Embree primitive are outside 1..=8.
     #[error("cluster size {0} is not in 1..=8")]
     ClusterSize(usize),
 }

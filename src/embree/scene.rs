@@ -264,10 +264,12 @@ pub struct Scene {
     committed: bool,
 }
 
-/// Options for a triangle mesh.
+/// Options for attaching geometry of any kind: [`Scene::attach_triangles`], and (as
+/// `UserGeometryOptions`, the same fields) [`Scene::attach_user`] and [`Scene::attach_phong`].
 #[derive(Clone, Copy, Debug)]
 pub struct GeometryOptions {
-    /// Geometry mask (Embree's default is 1; our rays use -1).
+    /// Geometry mask: a ray sees this geometry only if `ray.mask & mask != 0`. The default is
+    /// all bits (Embree's own default is 1), so every [`Ray`] sees it.
     pub mask: u32,
 }
 

@@ -400,18 +400,8 @@ unsafe fn occluded_lanes<T: UserPrimitives>(
     unsafe { for_each_candidate(data, a.primID, valid, ray, offer) }
 }
 
-/// Options for a user geometry.
-#[derive(Clone, Copy, Debug)]
-pub struct UserGeometryOptions {
-    /// Geometry mask (our rays use -1; Embree's default mask is 1).
-    pub mask: u32,
-}
-
-impl Default for UserGeometryOptions {
-    fn default() -> Self {
-        UserGeometryOptions { mask: u32::MAX }
-    }
-}
+/// The options of a user geometry: the same as every attach's ([`GeometryOptions`](super::scene::GeometryOptions)).
+pub use super::scene::GeometryOptions as UserGeometryOptions;
 
 /// Create a committed user geometry for `data` on `device_raw`. The caller must keep `data`
 /// at its address for as long as the geometry can be traced.

@@ -22,12 +22,14 @@
 pub const DEFAULT_ALPHA: f32 = 0.75;
 
 pub mod accuracy;
+pub mod basis;
 pub mod cluster;
 pub mod intersect;
 pub mod patch;
 pub mod real;
 pub mod reference;
 
+pub use basis::orthonormal_basis;
 pub use intersect::{
     intersect, intersect_in_hull_traced, intersect_traced, solve_cubic, solve_quadratic, Method, PatchHit,
     TestOutcome,

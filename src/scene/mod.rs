@@ -21,23 +21,85 @@ use glam::{DVec3, Vec3};
 /// Errors that stop a scene from loading. Each displays as one line naming the file.
 #[derive(Debug, thiserror::Error)]
 pub enum SceneError {
-    /// The cause is part of the message (not also a `source()`, so a chain prints it once).
+    /// The OBJ file cannot be opened or read. The cause is part of the message (not also a
+    /// `source()`, so a chain prints it once).
     #[error("{path}: cannot read: {error}")]
-    Io { path: PathBuf, error: std::io::Error },
+    Io {
+        /// The OBJ file.
+        path: PathBuf,
+        /// Why.
+        error: std::io::Error,
+    },
+    /// The path is a directory, FIFO, device or socket: refused before it is opened, since
+    /// reading it could block or never end.
     #[error("{path}: not a regular file ({kind}); give the path of an OBJ file")]
-    NotRegularFile { path: PathBuf, kind: &'static str },
+    NotRegularFile {
+        /// The path given.
+        path: PathBuf,
+        /// What it is instead, e.g. "a FIFO" or "a directory".
+        kind: &'static str,
+    },
+    /// The OBJ file is larger than [`MAX_OBJ_BYTES`] (refused before it is read).
     #[error("{path}: larger than the {limit_mib} MiB limit for {what}")]
-    TooLarge { path: PathBuf, what: &'static str, limit_mib: u64 },
+    TooLarge {
+        /// The file.
+        path: PathBuf,
+        /// What it was read as ("an OBJ file").
+        what: &'static str,
+        /// The limit, in MiB.
+        limit_mib: u64,
+    },
+    /// A statement that does not parse: a number that is not one, a face corner with more than
+    /// three parts, a `vt` without numbers, too few numbers for `v` or `vn`.
     #[error("{path}:{line}: malformed line: {message}")]
-    Malformed { path: PathBuf, line: usize, message: String },
+    Malformed {
+        /// The OBJ file.
+        path: PathBuf,
+        /// The 1-based line the statement starts on (`\` continuations join later lines to it).
+        line: usize,
+        /// What is wrong, quoting the token (cut by [`cut_token`]).
+        message: String,
+    },
+    /// A face index that is 0, or points past the elements defined before its line (OBJ indices
+    /// refer backwards only).
     #[error("{path}:{line}: {kind} index {index} out of range ({count} defined so far)")]
-    IndexOutOfRange { path: PathBuf, line: usize, kind: String, index: i64, count: usize },
+    IndexOutOfRange {
+        /// The OBJ file.
+        path: PathBuf,
+        /// The face's line.
+        line: usize,
+        /// "vertex", "normal" or "texture coordinate".
+        kind: String,
+        /// The index as written: 1-based, or negative (relative to the last defined).
+        index: i64,
+        /// How many elements of that kind precede the line.
+        count: usize,
+    },
+    /// A `v` or `vn` coordinate that parses but is infinite or NaN.
     #[error("{path}:{line}: coordinate {value:?} is not a finite number")]
-    NonFinite { path: PathBuf, line: usize, value: String },
+    NonFinite {
+        /// The OBJ file.
+        path: PathBuf,
+        /// The statement's line.
+        line: usize,
+        /// The token, quoted and cut by [`cut_token`].
+        value: String,
+    },
+    /// Nothing to render: the file has no faces, or every triangle is degenerate.
     #[error("{path}: no triangles to render{detail}")]
-    Empty { path: PathBuf, detail: String },
+    Empty {
+        /// The OBJ file.
+        path: PathBuf,
+        /// Which of the two, with the count: " (8 vertices, no faces)" or
+        /// " (all 12 faces are degenerate)".
+        detail: String,
+    },
+    /// The file holds a NUL byte: binary data or UTF-16 text, not an OBJ.
     #[error("{path}: binary data (NUL bytes), not an OBJ text file")]
-    NotText { path: PathBuf },
+    NotText {
+        /// The file.
+        path: PathBuf,
+    },
 }
 
 /// The most an OBJ file may hold (1 GiB): more is refused before it is read.
@@ -48,9 +110,12 @@ pub const MAX_MTL_BYTES: u64 = 64 << 20;
 /// Why an input file could not be read whole.
 #[derive(Debug)]
 pub enum ReadFailure {
+    /// Opening or reading failed.
     Io(std::io::Error),
-    /// A FIFO, device, socket or directory: reading it could block or never end.
+    /// A FIFO, device, socket or directory (named: "a FIFO"): reading it could block or never
+    /// end.
     NotRegular(&'static str),
+    /// More bytes than the limit given to [`read_regular_file`].
     TooLarge,
 }
 
@@ -121,16 +186,25 @@ pub fn cut_token(s: &str) -> String {
 /// Where a mesh's normals come from.
 #[derive(Clone, Copy, Debug, PartialEq, Eq)]
 pub enum NormalsSource {
+    /// Every vertex normal is the file's `vn` (normalised).
     FromFile,
+    /// Every vertex normal was computed: angle-weighted face normals, split at creases
+    /// (smoothing groups, or [`LoadOptions::crease_angle_deg`]).
     Computed,
+    /// Some of each: corners without a usable `vn` got computed normals.
     Mixed,
 }
 
 /// A triangle mesh with per-vertex unit normals.
 #[derive(Clone, Debug)]
 pub struct Mesh {
+    /// The OBJ object or group name (`mesh0`, `mesh1`, ... before any `o`/`g`), with
+    /// `/MATERIAL` appended when the group uses several materials.
     pub name: String,
+    /// Vertex positions. A loaded mesh has one vertex per welded position and normal, so a
+    /// position at a crease appears once per normal (see `position_ids`).
     pub positions: Vec<Vec3>,
+    /// Unit vertex normals, one per position.
     pub normals: Vec<Vec3>,
     /// Triangles, counter-clockwise as in the file.
     pub indices: Vec<[u32; 3]>,
@@ -140,6 +214,7 @@ pub struct Mesh {
     pub position_ids: Vec<u32>,
     /// Per triangle edge `i` = (corner `i`, corner `i+1`).
     pub edge_kinds: Vec<[EdgeKind; 3]>,
+    /// Whether the normals came from the file, were computed, or both.
     pub normals_source: NormalsSource,
     /// Per triangle, the texture coordinates `(u, v)` of its corners (OBJ `vt`), kept per corner
     /// so UV seams do not split vertices (and so do not turn smooth edges into creases). Empty
@@ -181,15 +256,24 @@ impl Mesh {
 /// A material, as much of MTL as the renderer uses.
 #[derive(Clone, Debug, PartialEq)]
 pub struct Material {
+    /// The `newmtl` name (`usemtl` refers to it).
     pub name: String,
+    /// Diffuse reflectance (`Kd`, linear RGB).
     pub kd: Vec3,
+    /// Specular reflectance (`Ks`): the highlight with `illum` >= 2, and the mirror with
+    /// `illum` 3, 5 or 7.
     pub ks: Vec3,
+    /// Emission (`Ke`): read, not rendered.
     pub ke: Vec3,
+    /// Specular exponent (`Ns`); 0 = no highlight.
     pub ns: f32,
+    /// Index of refraction (`Ni`), for transmission.
     pub ni: f32,
     /// Opacity `d` (1 = opaque; `Tr` = 1 - `d`).
     pub dissolve: f32,
+    /// The illumination model (`illum`), `None` when the file gives none.
     pub illum: Option<u8>,
+    /// The `map_Kd` texture, resolved against the OBJ file's directory.
     pub diffuse_texture: Option<PathBuf>,
 }
 
@@ -212,26 +296,42 @@ impl Default for Material {
 /// Counts over the whole scene.
 #[derive(Clone, Debug, Default, PartialEq, Eq)]
 pub struct LoadStats {
+    /// Output vertices, over all meshes.
     pub vertices: usize,
+    /// Output triangles, over all meshes (degenerate ones are not among them).
     pub triangles: usize,
-    /// Output vertices whose normal came from the file / was computed.
+    /// Output vertices whose normal came from the file.
     pub normals_from_file: usize,
+    /// Output vertices whose normal was computed.
     pub normals_computed: usize,
+    /// Edges shared by two triangles with the same vertices (one normal per end), counted once.
     pub smooth_edges: usize,
+    /// Edges shared by two triangles whose vertices differ in normal at the same positions,
+    /// counted once.
     pub crease_edges: usize,
+    /// Edges of one triangle only.
     pub border_edges: usize,
+    /// Edge sides on an edge of three or more triangles (each side counted).
     pub nonmanifold_edges: usize,
+    /// Triangles dropped as degenerate (a repeated position after welding, or zero area).
     pub degenerate_skipped: usize,
+    /// File normals of zero length (or not normalisable) that were replaced by computed ones.
     pub zero_normals_replaced: usize,
 }
 
 /// A loaded scene.
 #[derive(Clone, Debug)]
 pub struct Scene {
+    /// The OBJ file (`<name>` for a generated mesh).
     pub path: PathBuf,
+    /// One mesh per object/group and material, in order of first appearance.
     pub meshes: Vec<Mesh>,
+    /// Materials of every `mtllib`, in file order ([`Mesh::material`] indexes this).
     pub materials: Vec<Material>,
+    /// One-line messages about input that was skipped or replaced (unsupported statements,
+    /// degenerate triangles, missing materials or textures), each naming the file.
     pub warnings: Vec<String>,
+    /// Counts over all meshes.
     pub stats: LoadStats,
 }
 
@@ -334,35 +434,46 @@ pub fn load_obj(path: &Path, opts: &LoadOptions) -> Result<Scene, SceneError> {
 pub fn load_obj_text(text: &str, path: &Path, opts: &LoadOptions) -> Result<Scene, SceneError> {
     let raw = obj::parse(text, path)?;
     let dir = path.parent().unwrap_or(Path::new(".")).to_path_buf();
-    let mut warnings = Vec::new();
     let name = path.display().to_string();
 
-    // Materials.
+    // Read the materials, and say what the parser skipped.
+    let mut warnings = Vec::new();
+    let materials = load_materials(&raw, &dir, &name, &mut warnings);
+    warn_skipped_input(&raw, &name, &mut warnings);
+
+    // Build one mesh per (group, material), in order of first appearance.
+    let tol = weld_tolerance(&raw, opts);
+    let mut stats = LoadStats::default();
+    let (meshes, undefined) = build_meshes(&raw, &materials, tol, opts, &mut stats);
+    warn_built_meshes(&meshes, &undefined, &stats, &name, &mut warnings);
+    if meshes.is_empty() {
+        let detail = if raw.faces.is_empty() {
+            format!(" ({} vertices, no faces)", raw.positions.len())
+        } else {
+            format!(" (all {} faces are degenerate)", raw.faces.len())
+        };
+        return Err(SceneError::Empty { path: path.to_path_buf(), detail });
+    }
+    let mut scene = Scene { path: path.to_path_buf(), meshes, materials, warnings, stats };
+    scene.recount();
+    Ok(scene)
+}
+
+/// The materials of every `mtllib` (resolved against `dir`), in order; a library that cannot
+/// be read, or a texture that is missing, is a warning (the default material, the flat `Kd`).
+fn load_materials(raw: &obj::RawObj, dir: &Path, name: &str, warnings: &mut Vec<String>) -> Vec<Material> {
     let mut materials: Vec<Material> = Vec::new();
     for lib in &raw.mtllibs {
-        let mtl_path = obj::resolve_file(&dir, lib);
+        let mtl_path = obj::resolve_file(dir, lib);
         let loaded = read_regular_file(&mtl_path, MAX_MTL_BYTES)
             .map(|b| mtl::parse(&String::from_utf8_lossy(&b), &mtl_path));
         match loaded {
             Ok(lib) => {
                 warnings.extend(lib.warning);
                 for m in lib.materials {
-                    let tex = m.diffuse_texture.as_ref().map(|t| obj::resolve_file(&dir, t));
+                    let tex = m.diffuse_texture.as_ref().map(|t| obj::resolve_file(dir, t));
                     if let Some(t) = &tex {
-                        // Say when a texture cannot be read (the render uses the flat Kd colour).
-                        match std::fs::metadata(t) {
-                            Ok(md) if md.is_file() => {}
-                            Ok(_) => warnings.push(format!(
-                                "{}: texture {} is not a regular file; using the flat Kd colour",
-                                mtl_path.display(),
-                                t.display()
-                            )),
-                            Err(_) => warnings.push(format!(
-                                "{}: texture {} not found; using the flat Kd colour",
-                                mtl_path.display(),
-                                t.display()
-                            )),
-                        }
+                        warnings.extend(texture_warning(&mtl_path, t));
                     }
                     materials.push(m.to_material(tex));
                 }
@@ -377,6 +488,29 @@ pub fn load_obj_text(text: &str, path: &Path, opts: &LoadOptions) -> Result<Scen
             )),
         }
     }
+    materials
+}
+
+/// Say when a texture cannot be read (the render uses the flat Kd colour).
+fn texture_warning(mtl_path: &Path, texture: &Path) -> Option<String> {
+    match std::fs::metadata(texture) {
+        Ok(md) if md.is_file() => None,
+        Ok(_) => Some(format!(
+            "{}: texture {} is not a regular file; using the flat Kd colour",
+            mtl_path.display(),
+            texture.display()
+        )),
+        Err(_) => Some(format!(
+            "{}: texture {} not found; using the flat Kd colour",
+            mtl_path.display(),
+            texture.display()
+        )),
+    }
+}
+
+/// One warning each for what the parser counted and skipped: `usemtl` without `mtllib`, bad
+/// `vt` lines, unsupported statements, elements without a surface.
+fn warn_skipped_input(raw: &obj::RawObj, name: &str, warnings: &mut Vec<String>) {
     if raw.usemtl_without_mtllib && raw.mtllibs.is_empty() {
         warnings.push(format!("{name}: `usemtl` without `mtllib`; using a default material"));
     }
@@ -404,24 +538,12 @@ pub fn load_obj_text(text: &str, path: &Path, opts: &LoadOptions) -> Result<Scen
         .collect();
         warnings.push(format!("{name}: skipped {} (no surface; first at line {first})", parts.join(", ")));
     }
+}
 
-    // Group faces into meshes by (group, material), in order of first appearance.
-    let mut keys: Vec<(usize, Option<String>)> = Vec::new();
-    let mut key_ids: HashMap<(usize, Option<&str>), usize> = HashMap::new();
-    let mut faces_of: Vec<Vec<usize>> = Vec::new();
-    let mut keys_per_group: HashMap<usize, usize> = HashMap::new();
-    for (fi, f) in raw.faces.iter().enumerate() {
-        let k = *key_ids.entry((f.group, f.material.as_deref())).or_insert_with(|| {
-            keys.push((f.group, f.material.clone()));
-            faces_of.push(Vec::new());
-            *keys_per_group.entry(f.group).or_default() += 1;
-            keys.len() - 1
-        });
-        faces_of[k].push(fi);
-    }
-
-    // Welding tolerance from the size of what the faces use (an unused far-away vertex must not
-    // change it); `build_mesh` caps it per vertex by the local edge lengths.
+/// The welding tolerance: `opts.weld_tolerance` times the diagonal of what the faces use (an
+/// unused far-away vertex must not change it); `build_mesh` caps it per vertex by the local
+/// edge lengths.
+fn weld_tolerance(raw: &obj::RawObj, opts: &LoadOptions) -> f32 {
     let (mut lo, mut hi) = (DVec3::splat(f64::INFINITY), DVec3::splat(f64::NEG_INFINITY));
     for c in raw.faces.iter().flat_map(|f| &f.corners) {
         let p = raw.positions[c.v as usize].as_dvec3();
@@ -429,32 +551,80 @@ pub fn load_obj_text(text: &str, path: &Path, opts: &LoadOptions) -> Result<Scen
         hi = hi.max(p);
     }
     let diag = if lo.x <= hi.x { (hi - lo).length() } else { 0.0 };
-    let tol = (opts.weld_tolerance.max(0.0) as f64 * diag).min(f32::MAX as f64) as f32;
+    (opts.weld_tolerance.max(0.0) as f64 * diag).min(f32::MAX as f64) as f32
+}
 
-    let mut meshes = Vec::new();
-    let mut stats = LoadStats::default();
+/// The faces of one mesh to build: a (group, material) pair in order of first appearance.
+struct FaceGroup<'a> {
+    group: usize,
+    material: Option<&'a str>,
+    faces: Vec<&'a obj::Face>,
+}
+
+/// Group faces by (group, material), in order of first appearance; and per group, how many
+/// materials it uses.
+fn group_faces(raw: &obj::RawObj) -> (Vec<FaceGroup<'_>>, HashMap<usize, usize>) {
+    let mut groups: Vec<FaceGroup> = Vec::new();
+    let mut ids: HashMap<(usize, Option<&str>), usize> = HashMap::new();
+    let mut materials_per_group: HashMap<usize, usize> = HashMap::new();
+    for f in &raw.faces {
+        let k = *ids.entry((f.group, f.material.as_deref())).or_insert_with(|| {
+            groups.push(FaceGroup { group: f.group, material: f.material.as_deref(), faces: Vec::new() });
+            *materials_per_group.entry(f.group).or_default() += 1;
+            groups.len() - 1
+        });
+        groups[k].faces.push(f);
+    }
+    (groups, materials_per_group)
+}
+
+/// Build the meshes (skipping those with no triangle left), named after their group (and
+/// material, when the group has several). Also returns the material names used but not
+/// defined by any `mtllib`, in order of first use.
+fn build_meshes<'a>(
+    raw: &'a obj::RawObj,
+    materials: &[Material],
+    tol: f32,
+    opts: &LoadOptions,
+    stats: &mut LoadStats,
+) -> (Vec<Mesh>, Vec<&'a str>) {
+    let (groups, materials_per_group) = group_faces(raw);
     let material_ids: HashMap<&str, usize> =
         materials.iter().enumerate().rev().map(|(i, m)| (m.name.as_str(), i)).collect();
+    let mut meshes = Vec::new();
     let mut undefined: Vec<&str> = Vec::new();
     let mut undefined_seen: std::collections::HashSet<&str> = Default::default();
-    for (k, (group, mat)) in keys.iter().enumerate() {
-        let material = mat.as_deref().and_then(|m| material_ids.get(m).copied());
-        if let (Some(m), None) = (mat, material) {
-            if !raw.mtllibs.is_empty() && undefined_seen.insert(m.as_str()) {
+    for g in groups {
+        // Compute the material index, noting a name no library defines.
+        let material = g.material.and_then(|m| material_ids.get(m).copied());
+        if let (Some(m), None) = (g.material, material) {
+            if !raw.mtllibs.is_empty() && undefined_seen.insert(m) {
                 undefined.push(m);
             }
         }
-        let gname = raw.groups.get(*group).cloned().unwrap_or_default();
+        // Compute the mesh name.
+        let gname = raw.groups.get(g.group).cloned().unwrap_or_default();
         let mname = if gname.is_empty() { format!("mesh{}", meshes.len()) } else { gname };
-        let mname = match (keys_per_group[group] > 1, mat) {
+        let mname = match (materials_per_group[&g.group] > 1, g.material) {
             (true, Some(m)) => format!("{mname}/{m}"),
             _ => mname,
         };
-        let faces: Vec<&obj::Face> = faces_of[k].iter().map(|&i| &raw.faces[i]).collect();
-        if let Some(mesh) = build_mesh(&raw, &faces, mname, material, tol, opts, &mut stats) {
+        if let Some(mesh) = build_mesh(raw, &g.faces, mname, material, tol, opts, stats) {
             meshes.push(mesh);
         }
     }
+    (meshes, undefined)
+}
+
+/// One warning each for materials not defined, degenerate triangles skipped (loudly when many)
+/// and file normals replaced.
+fn warn_built_meshes(
+    meshes: &[Mesh],
+    undefined: &[&str],
+    stats: &LoadStats,
+    name: &str,
+    warnings: &mut Vec<String>,
+) {
     if !undefined.is_empty() {
         warnings.push(format!(
             "{name}: {} materials not defined (e.g. {}); using a default material",
@@ -482,17 +652,6 @@ pub fn load_obj_text(text: &str, path: &Path, opts: &LoadOptions) -> Result<Scen
             stats.zero_normals_replaced
         ));
     }
-    if meshes.is_empty() {
-        let detail = if raw.faces.is_empty() {
-            format!(" ({} vertices, no faces)", raw.positions.len())
-        } else {
-            format!(" (all {} faces are degenerate)", raw.faces.len())
-        };
-        return Err(SceneError::Empty { path: path.to_path_buf(), detail });
-    }
-    let mut scene = Scene { path: path.to_path_buf(), meshes, materials, warnings, stats };
-    scene.recount();
-    Ok(scene)
 }
 
 fn angle_at(a: Vec3, b: Vec3, c: Vec3) -> f32 {
@@ -512,7 +671,50 @@ fn build_mesh(
     opts: &LoadOptions,
     stats: &mut LoadStats,
 ) -> Option<Mesh> {
-    // Triangulate into corners (file position index, file normal index, smoothing group).
+    // Triangulate into corners (file position index, file normal index), with smoothing groups.
+    let (tri_corners, tri_smooth) = triangulate_faces(raw, faces);
+    // Weld the positions this mesh uses.
+    let welded = WeldedPositions::new(raw, &tri_corners, tol);
+    // Keep the non-degenerate triangles, with their file normals and texture coordinates.
+    let tris = welded_triangles(raw, &welded, &tri_corners, &tri_smooth, stats);
+    if tris.is_empty() {
+        return None;
+    }
+    // Compute a normal for every corner (used where the file gives none).
+    let computed = ComputedNormals::new(&tris, &welded.positions, opts);
+    // Make the output vertices: one per (position, normal).
+    let out = output_vertices(&tris, &welded.positions, &computed);
+    stats.normals_from_file += out.from_file;
+    stats.normals_computed += out.computed;
+
+    // Classify the edges; keep the corner texture coordinates if any is usable.
+    let edge_kinds = classify_edges(&out.indices, &out.position_ids);
+    let normals_source = match (out.from_file, out.computed) {
+        (_, 0) => NormalsSource::FromFile,
+        (0, _) => NormalsSource::Computed,
+        _ => NormalsSource::Mixed,
+    };
+    let corner_uvs = if tris.iter().any(|t| t.uv.iter().any(|uv| uv[0].is_finite())) {
+        tris.iter().map(|t| t.uv).collect()
+    } else {
+        Vec::new()
+    };
+    Some(Mesh {
+        name,
+        positions: out.positions,
+        normals: out.normals,
+        indices: out.indices,
+        material,
+        position_ids: out.position_ids,
+        edge_kinds,
+        normals_source,
+        corner_uvs,
+    })
+}
+
+/// Every polygon ear-clipped into triangles of file corners, with each triangle's smoothing
+/// group.
+fn triangulate_faces(raw: &obj::RawObj, faces: &[&obj::Face]) -> (Vec<[obj::Corner; 3]>, Vec<Option<u32>>) {
     let mut tri_corners: Vec<[obj::Corner; 3]> = Vec::new();
     let mut tri_smooth: Vec<Option<u32>> = Vec::new();
     for f in faces {
@@ -522,47 +724,91 @@ fn build_mesh(
             tri_smooth.push(f.smoothing);
         }
     }
-    // Weld the positions this mesh uses.
-    let used: Vec<u32> = {
-        let mut u: Vec<u32> = tri_corners.iter().flatten().map(|c| c.v).collect();
-        u.sort_unstable();
-        u.dedup();
-        u
-    };
-    let pts: Vec<Vec3> = used.iter().map(|&v| raw.positions[v as usize]).collect();
-    // Per position, a tenth of its shortest non-zero incident edge: welding moves no corner
-    // farther than that, so corners a and b of an edge of length L never meet
-    // (|a - b| <= cap_a + cap_b <= 0.2 L), and welding never collapses a triangle.
-    let slot = |v: u32| used.binary_search(&v).unwrap_or(0);
-    let mut caps = vec![f64::INFINITY; used.len()];
-    for t in &tri_corners {
-        for k in 0..3 {
-            let (a, b) = (slot(t[k].v), slot(t[(k + 1) % 3].v));
-            let len = pts[a].as_dvec3().distance(pts[b].as_dvec3());
-            if len > 0.0 {
-                caps[a] = caps[a].min(0.1 * len);
-                caps[b] = caps[b].min(0.1 * len);
+    (tri_corners, tri_smooth)
+}
+
+/// The file positions one mesh uses, welded: welded position ids index `positions`.
+struct WeldedPositions {
+    /// The file position indices used, sorted.
+    used: Vec<u32>,
+    /// Their positions (`positions[i]` is file position `used[i]`).
+    positions: Vec<Vec3>,
+    /// Per used position, its welded position id.
+    ids: Vec<u32>,
+}
+
+impl WeldedPositions {
+    fn new(raw: &obj::RawObj, tri_corners: &[[obj::Corner; 3]], tol: f32) -> WeldedPositions {
+        let used: Vec<u32> = {
+            let mut u: Vec<u32> = tri_corners.iter().flatten().map(|c| c.v).collect();
+            u.sort_unstable();
+            u.dedup();
+            u
+        };
+        let positions: Vec<Vec3> = used.iter().map(|&v| raw.positions[v as usize]).collect();
+        // Per position, a tenth of its shortest non-zero incident edge: welding moves no corner
+        // farther than that, so corners a and b of an edge of length L never meet
+        // (|a - b| <= cap_a + cap_b <= 0.2 L), and welding never collapses a triangle.
+        let slot = |v: u32| used.binary_search(&v).unwrap_or(0);
+        let mut caps = vec![f64::INFINITY; used.len()];
+        for t in tri_corners {
+            for k in 0..3 {
+                let (a, b) = (slot(t[k].v), slot(t[(k + 1) % 3].v));
+                let len = positions[a].as_dvec3().distance(positions[b].as_dvec3());
+                if len > 0.0 {
+                    caps[a] = caps[a].min(0.1 * len);
+                    caps[b] = caps[b].min(0.1 * len);
+                }
             }
         }
+        let ids = weld(&positions, &caps, tol);
+        WeldedPositions { used, positions, ids }
     }
-    let wid = weld(&pts, &caps, tol);
-    let local = |v: u32| -> u32 { wid[used.binary_search(&v).unwrap_or(0)] };
-    let wpos = |pid: u32| pts[pid as usize];
 
-    // Drop degenerate triangles (repeated welded positions or zero area).
-    // Per triangle: welded position ids, the file's unit normal per corner (if usable), smoothing group.
-    type Tri = ([u32; 3], [Option<Vec3>; 3], Option<u32>, [[f32; 2]; 3]);
-    let mut tris: Vec<Tri> = Vec::new();
-    for (t, s) in tri_corners.iter().zip(&tri_smooth) {
-        let pid = t.map(|c| local(c.v));
-        let (a, b, c) = (wpos(pid[0]).as_dvec3(), wpos(pid[1]).as_dvec3(), wpos(pid[2]).as_dvec3());
+    /// The welded position id of file position `v`.
+    fn id(&self, v: u32) -> u32 {
+        self.ids[self.used.binary_search(&v).unwrap_or(0)]
+    }
+
+    /// The position of welded position id `pid`.
+    fn at(&self, pid: u32) -> Vec3 {
+        self.positions[pid as usize]
+    }
+}
+
+/// A triangle of a mesh being built.
+struct Tri {
+    /// Welded position ids of the corners.
+    pid: [u32; 3],
+    /// The file's unit normal per corner, where it gives a usable one.
+    file_normal: [Option<Vec3>; 3],
+    /// The smoothing group (`None` where the file never says).
+    smoothing: Option<u32>,
+    /// The texture coordinates per corner (NaN where none).
+    uv: [[f32; 2]; 3],
+}
+
+/// The triangles with distinct welded corners and non-zero area (the others are counted in
+/// `stats.degenerate_skipped`), with the file's normals (zero ones counted in
+/// `stats.zero_normals_replaced`) and texture coordinates.
+fn welded_triangles(
+    raw: &obj::RawObj,
+    welded: &WeldedPositions,
+    tri_corners: &[[obj::Corner; 3]],
+    tri_smooth: &[Option<u32>],
+    stats: &mut LoadStats,
+) -> Vec<Tri> {
+    let mut tris = Vec::new();
+    for (t, s) in tri_corners.iter().zip(tri_smooth) {
+        let pid = t.map(|c| welded.id(c.v));
+        let [a, b, c] = pid.map(|p| welded.at(p).as_dvec3());
         // In f64: the cross product of finite f32 coordinates cannot overflow there.
         let area2 = (b - a).cross(c - a).length();
         if pid[0] == pid[1] || pid[1] == pid[2] || pid[0] == pid[2] || !(area2 > 0.0) {
             stats.degenerate_skipped += 1;
             continue;
         }
-        let fnorm = t.map(|c| {
+        let file_normal = t.map(|c| {
             c.n.map(|n| raw.normals[n as usize]).and_then(|n| {
                 let r = n.try_normalize();
                 if r.is_none() {
@@ -572,143 +818,164 @@ fn build_mesh(
             })
         });
         let uv = t.map(|c| c.t.and_then(|i| raw.texcoords.get(i as usize).copied()).unwrap_or([f32::NAN; 2]));
-        tris.push((pid, fnorm, *s, uv));
+        tris.push(Tri { pid, file_normal, smoothing: *s, uv });
     }
-    if tris.is_empty() {
-        return None;
+    tris
+}
+
+/// Computed vertex normals per triangle corner: around each position, the angle-weighted mean
+/// of the face normals of the corners that join (same smoothing group, or within the crease
+/// angle), bit for bit the same for every corner of a cluster.
+struct ComputedNormals {
+    face_normals: Vec<Vec3>,
+    /// Per (triangle, corner).
+    corner: HashMap<(usize, usize), Vec3>,
+}
+
+impl ComputedNormals {
+    fn new(tris: &[Tri], positions: &[Vec3], opts: &LoadOptions) -> ComputedNormals {
+        let at = |pid: u32| positions[pid as usize];
+        // Compute the face normals and the corners incident to each position.
+        let face_normals: Vec<Vec3> = tris
+            .iter()
+            .map(|t| {
+                let [a, b, c] = t.pid.map(|q| at(q).as_dvec3());
+                (b - a).cross(c - a).normalize_or_zero().as_vec3()
+            })
+            .collect();
+        let mut incident: HashMap<u32, Vec<(usize, usize)>> = HashMap::new();
+        for (ti, t) in tris.iter().enumerate() {
+            for (k, &pid) in t.pid.iter().enumerate() {
+                incident.entry(pid).or_default().push((ti, k));
+            }
+        }
+        // Which faces join: smoothing groups if the mesh has any, else the crease angle.
+        let cos_crease = opts.crease_angle_deg.clamp(0.0, 180.0).to_radians().cos();
+        let any_smoothing = tris.iter().any(|t| t.smoothing.is_some());
+        let joins = |ti: usize, tj: usize| -> bool {
+            let (si, sj) = (&tris[ti].smoothing, &tris[tj].smoothing);
+            if any_smoothing {
+                // Smoothing groups: share normals within a non-zero group; group 0 is flat.
+                matches!((si, sj), (Some(a), Some(b)) if *a != 0 && a == b)
+            } else {
+                face_normals[ti].dot(face_normals[tj]) >= cos_crease
+            }
+        };
+        // Around each position, one normal per cluster of joined corners.
+        let mut corner: HashMap<(usize, usize), Vec3> = HashMap::new();
+        for (&pid, list) in &incident {
+            let cluster = corner_clusters(pid, list, tris, &joins);
+            let mut sums: HashMap<usize, Vec3> = HashMap::new();
+            for (e, &(t, k)) in list.iter().enumerate() {
+                let q = &tris[t].pid;
+                let ang = angle_at(at(q[k]), at(q[(k + 1) % 3]), at(q[(k + 2) % 3]));
+                *sums.entry(cluster[e]).or_insert(Vec3::ZERO) += ang * face_normals[t];
+            }
+            for (e, &(t, k)) in list.iter().enumerate() {
+                let n = sums[&cluster[e]].try_normalize().unwrap_or(face_normals[t]);
+                corner.insert((t, k), n);
+            }
+        }
+        ComputedNormals { face_normals, corner }
     }
 
-    // Face normals and corner angles, for computed normals.
-    let face_n: Vec<Vec3> = tris
-        .iter()
-        .map(|(p, _, _, _)| {
-            let [a, b, c] = p.map(|q| wpos(q).as_dvec3());
-            (b - a).cross(c - a).normalize_or_zero().as_vec3()
-        })
-        .collect();
-    let mut incident: HashMap<u32, Vec<(usize, usize)>> = HashMap::new();
-    for (ti, (p, _, _, _)) in tris.iter().enumerate() {
-        for (k, &pid) in p.iter().enumerate() {
-            incident.entry(pid).or_default().push((ti, k));
+    /// The computed normal of corner `k` of triangle `ti`.
+    fn at(&self, ti: usize, k: usize) -> Vec3 {
+        self.corner.get(&(ti, k)).copied().unwrap_or(self.face_normals[ti])
+    }
+}
+
+/// Cluster the corners `list` (triangle, corner) around position `pid`: two faces that share an
+/// edge at `pid` and join are one cluster. Returns each entry's cluster id (an index into
+/// `list`).
+fn corner_clusters(
+    pid: u32,
+    list: &[(usize, usize)],
+    tris: &[Tri],
+    joins: &impl Fn(usize, usize) -> bool,
+) -> Vec<usize> {
+    let mut parent: Vec<usize> = (0..list.len()).collect();
+    fn find(p: &mut [usize], mut x: usize) -> usize {
+        while p[x] != x {
+            p[x] = p[p[x]];
+            x = p[x];
+        }
+        x
+    }
+    // Faces that share an edge at this position share its other end `q`: group the corners by
+    // `q` (linear, where comparing all pairs would be quadratic in the valence, and a hostile
+    // fan has 100k triangles around one vertex).
+    let mut by_other: HashMap<u32, Vec<usize>> = HashMap::new();
+    for (e, &(t, _)) in list.iter().enumerate() {
+        for &q in tris[t].pid.iter().filter(|&&q| q != pid) {
+            by_other.entry(q).or_default().push(e);
         }
     }
-    let cos_crease = opts.crease_angle_deg.clamp(0.0, 180.0).to_radians().cos();
-    let any_smoothing = tris.iter().any(|(_, _, s, _)| s.is_some());
-    let joins = |ti: usize, tj: usize| -> bool {
-        let (si, sj) = (&tris[ti].2, &tris[tj].2);
-        if any_smoothing {
-            // Smoothing groups: share normals within a non-zero group; group 0 is flat.
-            matches!((si, sj), (Some(a), Some(b)) if *a != 0 && a == b)
-        } else {
-            face_n[ti].dot(face_n[tj]) >= cos_crease
-        }
-    };
-    // Around each position, cluster the incident corners: two faces that share an edge at this
-    // position and join (same smoothing group, or within the crease angle) are one cluster; a
-    // cluster's corners all get the same (angle-weighted) normal, bit for bit.
-    let mut corner_normal: HashMap<(usize, usize), Vec3> = HashMap::new();
-    for (&pid, list) in &incident {
-        let m = list.len();
-        let mut parent: Vec<usize> = (0..m).collect();
-        fn find(p: &mut [usize], mut x: usize) -> usize {
-            while p[x] != x {
-                p[x] = p[p[x]];
-                x = p[x];
-            }
-            x
-        }
-        // Faces that share an edge at this position share its other end `q`: group the corners
-        // by `q` (linear, where comparing all pairs would be quadratic in the valence, and a
-        // hostile fan has 100k triangles around one vertex).
-        let mut by_other: HashMap<u32, Vec<usize>> = HashMap::new();
-        for (e, &(t, _)) in list.iter().enumerate() {
-            for &q in tris[t].0.iter().filter(|&&q| q != pid) {
-                by_other.entry(q).or_default().push(e);
-            }
-        }
-        for group in by_other.values() {
-            // A manifold edge has 2 faces; a non-manifold one may have many: all pairs up to 64,
-            // then neighbours in order only (bounded work).
-            let all_pairs = group.len() <= 64;
-            for i in 0..group.len() {
-                let last = if all_pairs { group.len() } else { (i + 2).min(group.len()) };
-                for j in i + 1..last {
-                    let (a, b) = (group[i], group[j]);
-                    if joins(list[a].0, list[b].0) {
-                        let (ra, rb) = (find(&mut parent, a), find(&mut parent, b));
-                        parent[ra] = rb;
-                    }
+    for group in by_other.values() {
+        // A manifold edge has 2 faces; a non-manifold one may have many: all pairs up to 64,
+        // then neighbours in order only (bounded work).
+        let all_pairs = group.len() <= 64;
+        for i in 0..group.len() {
+            let last = if all_pairs { group.len() } else { (i + 2).min(group.len()) };
+            for j in i + 1..last {
+                let (a, b) = (group[i], group[j]);
+                if joins(list[a].0, list[b].0) {
+                    let (ra, rb) = (find(&mut parent, a), find(&mut parent, b));
+                    parent[ra] = rb;
                 }
             }
         }
-        let mut sums: HashMap<usize, Vec3> = HashMap::new();
-        for (e, &(t, k)) in list.iter().enumerate() {
-            let q = &tris[t].0;
-            let ang = angle_at(wpos(q[k]), wpos(q[(k + 1) % 3]), wpos(q[(k + 2) % 3]));
-            *sums.entry(find(&mut parent, e)).or_insert(Vec3::ZERO) += ang * face_n[t];
-        }
-        for (e, &(t, k)) in list.iter().enumerate() {
-            let n = sums[&find(&mut parent, e)].try_normalize().unwrap_or(face_n[t]);
-            corner_normal.insert((t, k), n);
-        }
     }
-    let computed_normal =
-        |ti: usize, k: usize| -> Vec3 { corner_normal.get(&(ti, k)).copied().unwrap_or(face_n[ti]) };
+    (0..list.len()).map(|e| find(&mut parent, e)).collect()
+}
 
-    // Output vertices: one per (position, normal).
+/// A mesh's output vertex arrays.
+struct OutputVertices {
+    positions: Vec<Vec3>,
+    normals: Vec<Vec3>,
+    position_ids: Vec<u32>,
+    indices: Vec<[u32; 3]>,
+    /// Vertices whose normal came from the file.
+    from_file: usize,
+    /// Vertices whose normal was computed.
+    computed: usize,
+}
+
+/// One output vertex per (welded position, normal): the file's normal where usable, else the
+/// computed one.
+fn output_vertices(tris: &[Tri], positions: &[Vec3], computed_normals: &ComputedNormals) -> OutputVertices {
+    let mut out = OutputVertices {
+        positions: Vec::new(),
+        normals: Vec::new(),
+        position_ids: Vec::new(),
+        indices: Vec::with_capacity(tris.len()),
+        from_file: 0,
+        computed: 0,
+    };
     let mut vmap: HashMap<(u32, [u32; 3]), u32> = HashMap::new();
-    let mut positions = Vec::new();
-    let mut normals = Vec::new();
-    let mut position_ids = Vec::new();
-    let mut indices = Vec::with_capacity(tris.len());
-    let (mut from_file, mut computed) = (0usize, 0usize);
-    for (ti, (p, fnorm, _, _)) in tris.iter().enumerate() {
+    for (ti, t) in tris.iter().enumerate() {
         let mut tri = [0u32; 3];
         for k in 0..3 {
-            let (n, file) = match fnorm[k] {
+            let (n, file) = match t.file_normal[k] {
                 Some(n) => (n, true),
-                None => (computed_normal(ti, k), false),
+                None => (computed_normals.at(ti, k), false),
             };
-            let key = (p[k], n.to_array().map(f32::to_bits));
+            let key = (t.pid[k], n.to_array().map(f32::to_bits));
             tri[k] = *vmap.entry(key).or_insert_with(|| {
-                positions.push(wpos(p[k]));
-                normals.push(n);
-                position_ids.push(p[k]);
+                out.positions.push(positions[t.pid[k] as usize]);
+                out.normals.push(n);
+                out.position_ids.push(t.pid[k]);
                 if file {
-                    from_file += 1;
+                    out.from_file += 1;
                 } else {
-                    computed += 1;
+                    out.computed += 1;
                 }
-                (positions.len() - 1) as u32
+                (out.positions.len() - 1) as u32
             });
         }
-        indices.push(tri);
+        out.indices.push(tri);
     }
-    stats.normals_from_file += from_file;
-    stats.normals_computed += computed;
-
-    let edge_kinds = classify_edges(&indices, &position_ids);
-    let normals_source = match (from_file, computed) {
-        (_, 0) => NormalsSource::FromFile,
-        (0, _) => NormalsSource::Computed,
-        _ => NormalsSource::Mixed,
-    };
-    let corner_uvs = if tris.iter().any(|t| t.3.iter().any(|uv| uv[0].is_finite())) {
-        tris.iter().map(|t| t.3).collect()
-    } else {
-        Vec::new()
-    };
-    Some(Mesh {
-        name,
-        positions,
-        normals,
-        indices,
-        material,
-        position_ids,
-        edge_kinds,
-        normals_source,
-        corner_uvs,
-    })
+    out
 }
 
 /// A UV sphere of `segments` × `rings` with exact normals (poles are single vertices).

@@ -14,15 +14,25 @@ use super::{cut_token, Material};
 /// What an MTL file defines; `diffuse_texture` is the name as written (resolved by the caller).
 #[derive(Clone, Debug, Default)]
 pub struct RawMaterial {
+    /// The `newmtl` name.
     pub name: String,
+    /// `Kd`, the diffuse colour.
     pub kd: Option<Vec3>,
+    /// `Ks`, the specular colour.
     pub ks: Option<Vec3>,
+    /// `Ke`, the emissive colour.
     pub ke: Option<Vec3>,
+    /// `Ns`, the specular exponent.
     pub ns: Option<f32>,
+    /// `Ni`, the index of refraction.
     pub ni: Option<f32>,
+    /// `d`, the opacity; it wins over `Tr` when both are given.
     pub dissolve: Option<f32>,
+    /// `Tr`, the transparency (`1 - d`).
     pub transparency: Option<f32>,
+    /// `illum`, the illumination model number.
     pub illum: Option<u8>,
+    /// The `map_Kd` file name (options dropped), as written.
     pub diffuse_texture: Option<String>,
 }
 
@@ -49,7 +59,9 @@ impl RawMaterial {
 /// and naming the first.
 #[derive(Clone, Debug, Default)]
 pub struct RawMtl {
+    /// The materials in file order (a repeated name appears twice; the first wins on lookup).
     pub materials: Vec<RawMaterial>,
+    /// "FILE: skipped N unusable lines (first: line L: why)", when any line was skipped.
     pub warning: Option<String>,
 }
 

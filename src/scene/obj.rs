@@ -15,7 +15,9 @@ use super::{cut_token, SceneError};
 /// One polygon corner: position index and optional normal index (0-based, resolved).
 #[derive(Clone, Copy, Debug, PartialEq, Eq)]
 pub struct Corner {
+    /// Position index into [`RawObj::positions`].
     pub v: u32,
+    /// Normal index into [`RawObj::normals`], if the corner names one (`v//vn`, `v/vt/vn`).
     pub n: Option<u32>,
     /// Texture coordinate index (0-based, resolved).
     pub t: Option<u32>,
@@ -24,6 +26,7 @@ pub struct Corner {
 /// A polygon as written in the file.
 #[derive(Clone, Debug)]
 pub struct Face {
+    /// The corners in file order (at least 3; shorter `f` lines are counted and skipped).
     pub corners: Vec<Corner>,
     /// Smoothing group (0 = off); `None` where the file never says.
     pub smoothing: Option<u32>,
@@ -31,32 +34,40 @@ pub struct Face {
     pub group: usize,
     /// Material name in effect.
     pub material: Option<String>,
+    /// The 1-based line of the `f` statement, for messages.
     pub line: usize,
 }
 
 /// The parsed file, indices resolved and checked.
 #[derive(Clone, Debug, Default)]
 pub struct RawObj {
+    /// `v` positions, in file order (finite).
     pub positions: Vec<Vec3>,
+    /// `vn` normals as written (finite, not normalised, possibly zero).
     pub normals: Vec<Vec3>,
     /// `vt` coordinates `(u, v)`; NaN where the line was unusable (see `bad_texcoord_line`).
     pub texcoords: Vec<[f32; 2]>,
-    /// The first `vt` line with more than 3 numbers or a non-finite one, and how many there are.
+    /// The first `vt` line with more than 3 numbers or a non-finite one.
     pub bad_texcoord_line: Option<usize>,
+    /// How many `vt` lines are unusable that way.
     pub bad_texcoords: usize,
+    /// Every `f` with at least 3 corners, in file order.
     pub faces: Vec<Face>,
     /// Object/group names in order of appearance (index 0 = "" before any `o`/`g`).
     pub groups: Vec<String>,
+    /// `mtllib` file names as written, in order (resolve with [`resolve_file`]).
     pub mtllibs: Vec<String>,
     /// Statements skipped as unsupported (curves, surfaces, ...).
     pub skipped_statements: usize,
     /// `f` lines with fewer than 3 corners, skipped (as tinyobjloader and Blender do).
     pub short_faces: usize,
-    /// `l` (line) and `p` (point) elements, skipped: they have no surface.
+    /// `l` (line) elements, skipped: they have no surface.
     pub line_elements: usize,
+    /// `p` (point) elements, skipped likewise.
     pub point_elements: usize,
     /// The first skipped element's line, for the warning.
     pub first_skipped_element_line: Option<usize>,
+    /// Whether a `usemtl` came before any `mtllib` (a warning when no `mtllib` follows).
     pub usemtl_without_mtllib: bool,
 }
 
@@ -107,12 +118,25 @@ fn resolve(path: &Path, line: usize, kind: &str, tok: &str, count: usize) -> Res
 /// Parse OBJ text; `path` is for messages only. A leading UTF-8 byte-order mark is ignored.
 pub fn parse(text: &str, path: &Path) -> Result<RawObj, SceneError> {
     let text = text.strip_prefix('\u{feff}').unwrap_or(text);
-    let mut obj = RawObj { groups: vec![String::new()], ..Default::default() };
-    let mut group_ids: HashMap<String, usize> = HashMap::from([(String::new(), 0)]);
-    let mut texcoords = 0usize;
-    let mut group = 0usize;
-    let mut material: Option<String> = None;
-    let mut smoothing: Option<u32> = None;
+    let mut parser = Parser {
+        path,
+        obj: RawObj { groups: vec![String::new()], ..Default::default() },
+        group_ids: HashMap::from([(String::new(), 0)]),
+        texcoords: 0,
+        group: 0,
+        material: None,
+        smoothing: None,
+    };
+    for_each_statement(text, |line, kw, args| parser.statement(line, kw, args))?;
+    Ok(parser.obj)
+}
+
+/// Call `f(line, keyword, arguments)` for each statement of `text`: `\` continuations joined
+/// (`line` is where the statement starts), comments and blank lines dropped.
+fn for_each_statement(
+    text: &str,
+    mut f: impl FnMut(usize, &str, &[&str]) -> Result<(), SceneError>,
+) -> Result<(), SceneError> {
     let mut pending = String::new();
     let mut start_line = 0usize;
     for (i, raw) in text.lines().enumerate() {
@@ -136,90 +160,121 @@ pub fn parse(text: &str, path: &Path) -> Result<RawObj, SceneError> {
         let mut it = content.split_whitespace();
         let Some(kw) = it.next() else { continue };
         let args: Vec<&str> = it.collect();
-        let line = start_line;
+        f(start_line, kw, &args)?;
+    }
+    Ok(())
+}
+
+/// The parse so far, and the state statements set for the faces that follow.
+struct Parser<'p> {
+    path: &'p Path,
+    obj: RawObj,
+    group_ids: HashMap<String, usize>,
+    /// `vt` lines so far (usable or not: face indices count them all).
+    texcoords: usize,
+    group: usize,
+    material: Option<String>,
+    smoothing: Option<u32>,
+}
+
+impl Parser<'_> {
+    /// Apply one statement.
+    fn statement(&mut self, line: usize, kw: &str, args: &[&str]) -> Result<(), SceneError> {
+        let path = self.path;
         match kw {
             "v" => {
-                let [x, y, z] = parse_floats::<3>(path, line, "v", &args)?;
-                obj.positions.push(Vec3::new(x, y, z));
+                let [x, y, z] = parse_floats::<3>(path, line, "v", args)?;
+                self.obj.positions.push(Vec3::new(x, y, z));
             }
             "vn" => {
-                let [x, y, z] = parse_floats::<3>(path, line, "vn", &args)?;
-                obj.normals.push(Vec3::new(x, y, z));
+                let [x, y, z] = parse_floats::<3>(path, line, "vn", args)?;
+                self.obj.normals.push(Vec3::new(x, y, z));
             }
-            "vt" => {
-                if args.is_empty() {
-                    return Err(malformed(path, line, "`vt` needs at least one number"));
-                }
-                // u [v [w]]: w is unused; more numbers, or a non-finite one, make it unusable.
-                let nums: Vec<f32> = args.iter().map(|a| a.parse::<f32>().unwrap_or(f32::NAN)).collect();
-                let uv = [nums[0], nums.get(1).copied().unwrap_or(0.0)];
-                if nums.len() > 3 || !nums.iter().all(|x| x.is_finite()) {
-                    obj.bad_texcoord_line.get_or_insert(line);
-                    obj.bad_texcoords += 1;
-                    obj.texcoords.push([f32::NAN; 2]);
-                } else {
-                    obj.texcoords.push(uv);
-                }
-                texcoords += 1;
-            }
+            "vt" => self.texcoord(line, args)?,
             "f" | "l" | "p" if args.len() < 3 || kw != "f" => {
                 // No surface: skipped, counted for one warning.
                 match kw {
-                    "f" => obj.short_faces += 1,
-                    "l" => obj.line_elements += 1,
-                    _ => obj.point_elements += 1,
+                    "f" => self.obj.short_faces += 1,
+                    "l" => self.obj.line_elements += 1,
+                    _ => self.obj.point_elements += 1,
                 }
-                obj.first_skipped_element_line.get_or_insert(line);
+                self.obj.first_skipped_element_line.get_or_insert(line);
             }
-            "f" => {
-                let mut corners = Vec::with_capacity(args.len());
-                for a in &args {
-                    let mut parts = a.split('/');
-                    let v = parts.next().unwrap_or("");
-                    let t = parts.next();
-                    let n = parts.next();
-                    if parts.next().is_some() {
-                        return Err(malformed(
-                            path,
-                            line,
-                            format!("face corner {} has more than 3 parts", cut_token(a)),
-                        ));
-                    }
-                    let v = resolve(path, line, "vertex", v, obj.positions.len())?;
-                    let t = match t.filter(|t| !t.is_empty()) {
-                        Some(t) => Some(resolve(path, line, "texture coordinate", t, texcoords)?),
-                        None => None,
-                    };
-                    let n = match n.filter(|n| !n.is_empty()) {
-                        Some(n) => Some(resolve(path, line, "normal", n, obj.normals.len())?),
-                        None => None,
-                    };
-                    corners.push(Corner { v, n, t });
-                }
-                obj.faces.push(Face { corners, smoothing, group, material: material.clone(), line });
-            }
+            "f" => self.face(line, args)?,
             "o" | "g" => {
                 let name = args.join(" ");
-                group = *group_ids.entry(name).or_insert_with_key(|name| {
-                    obj.groups.push(name.clone());
-                    obj.groups.len() - 1
+                let groups = &mut self.obj.groups;
+                self.group = *self.group_ids.entry(name).or_insert_with_key(|name| {
+                    groups.push(name.clone());
+                    groups.len() - 1
                 });
             }
             "usemtl" => {
-                material = Some(args.join(" "));
-                if obj.mtllibs.is_empty() {
-                    obj.usemtl_without_mtllib = true;
+                self.material = Some(args.join(" "));
+                if self.obj.mtllibs.is_empty() {
+                    self.obj.usemtl_without_mtllib = true;
                 }
             }
-            "mtllib" => obj.mtllibs.extend(args.iter().map(|s| s.to_string())),
+            "mtllib" => self.obj.mtllibs.extend(args.iter().map(|s| s.to_string())),
             "s" => {
                 let a = args.first().copied().unwrap_or("off");
-                smoothing = Some(if a == "off" { 0 } else { a.parse().unwrap_or(1) });
+                self.smoothing = Some(if a == "off" { 0 } else { a.parse().unwrap_or(1) });
             }
-            _ => obj.skipped_statements += 1,
+            _ => self.obj.skipped_statements += 1,
         }
+        Ok(())
     }
-    Ok(obj)
+
+    /// `vt u [v [w]]`: w is unused; more numbers, or a non-finite one, make it unusable (NaN,
+    /// counted for one warning).
+    fn texcoord(&mut self, line: usize, args: &[&str]) -> Result<(), SceneError> {
+        if args.is_empty() {
+            return Err(malformed(self.path, line, "`vt` needs at least one number"));
+        }
+        let nums: Vec<f32> = args.iter().map(|a| a.parse::<f32>().unwrap_or(f32::NAN)).collect();
+        let uv = [nums[0], nums.get(1).copied().unwrap_or(0.0)];
+        if nums.len() > 3 || !nums.iter().all(|x| x.is_finite()) {
+            self.obj.bad_texcoord_line.get_or_insert(line);
+            self.obj.bad_texcoords += 1;
+            self.obj.texcoords.push([f32::NAN; 2]);
+        } else {
+            self.obj.texcoords.push(uv);
+        }
+        self.texcoords += 1;
+        Ok(())
+    }
+
+    /// `f v[/vt[/vn]] ...` with at least 3 corners, each index resolved against what precedes.
+    fn face(&mut self, line: usize, args: &[&str]) -> Result<(), SceneError> {
+        let path = self.path;
+        let mut corners = Vec::with_capacity(args.len());
+        for a in args {
+            let mut parts = a.split('/');
+            let v = parts.next().unwrap_or("");
+            let t = parts.next();
+            let n = parts.next();
+            if parts.next().is_some() {
+                return Err(malformed(
+                    path,
+                    line,
+                    format!("face corner {} has more than 3 parts", cut_token(a)),
+                ));
+            }
+            let v = resolve(path, line, "vertex", v, self.obj.positions.len())?;
+            let t = match t.filter(|t| !t.is_empty()) {
+                Some(t) => Some(resolve(path, line, "texture coordinate", t, self.texcoords)?),
+                None => None,
+            };
+            let n = match n.filter(|n| !n.is_empty()) {
+                Some(n) => Some(resolve(path, line, "normal", n, self.obj.normals.len())?),
+                None => None,
+            };
+            corners.push(Corner { v, n, t });
+        }
+        let (smoothing, group, material) = (self.smoothing, self.group, self.material.clone());
+        self.obj.faces.push(Face { corners, smoothing, group, material, line });
+        Ok(())
+    }
 }
 
 /// Resolve a path written in an OBJ/MTL file (which may use `\` separators) against `dir`.

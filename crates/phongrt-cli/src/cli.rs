@@ -2,8 +2,9 @@
 
 use std::path::PathBuf;
 
-use clap::{Args, Parser, Subcommand, ValueEnum};
+use clap::{Args, Parser, Subcommand};
 use glam::Vec3;
+use phongrt_cli::render::SurfaceMode;
 
 /// Ray-trace Phong Tessellation directly, as an Embree 4 user geometry.
 ///
@@ -62,19 +63,12 @@ pub struct SmoothnessArgs {
 }
 
 /// A setting that is on or off.
-#[derive(Clone, Copy, Debug, PartialEq, Eq, ValueEnum)]
+#[derive(Clone, Copy, Debug, PartialEq, Eq, clap::ValueEnum)]
 pub enum Switch {
+    /// On.
     On,
+    /// Off.
     Off,
-}
-
-/// How surfaces are made.
-#[derive(Clone, Copy, Debug, PartialEq, Eq, ValueEnum)]
-pub enum Mode {
-    /// Embree's native flat triangles, shaded with interpolated vertex normals.
-    Flat,
-    /// Phong tessellation ray traced directly as an Embree user geometry.
-    Phong,
 }
 
 #[derive(Args, Debug)]
@@ -95,8 +89,8 @@ pub struct RenderArgs {
     #[arg(long)]
     pub spp: Option<u32>,
     /// Surface mode for every object.
-    #[arg(long, value_enum, default_value_t = Mode::Phong)]
-    pub mode: Mode,
+    #[arg(long, value_enum, default_value_t = SurfaceMode::Phong)]
+    pub mode: SurfaceMode,
     /// Phong shape factor in [0, 1] (0 = flat, 1 = full Phong tessellation; 0.75 is Boubekeur &
     /// Alexa's recommendation, which bulges less).
     #[arg(long, default_value_t = phongrt::phong::DEFAULT_ALPHA)]

@@ -11,14 +11,14 @@ use anyhow::{bail, Context};
 use clap::Parser;
 use glam::Vec3;
 
-use cli::{Cli, Command, InfoArgs, Mode, RenderArgs, StitchArgs};
+use cli::{Cli, Command, InfoArgs, RenderArgs, StitchArgs};
 use phongrt::embree::{self, Device};
 use phongrt::scene::{self, LoadOptions};
 use phongrt_cli::render::image_out::{self, EncodeOptions, ImageFormat, Tile, TilePixels};
-use phongrt_cli::render::scene_file::{LightSection, ModeName, SceneFile};
+use phongrt_cli::render::scene_file::{self, LightSection, SceneFile};
 use phongrt_cli::render::{
     self, AmbientOcclusion, Camera, Image, Light, ObjectMode, ObjectSettings, RenderExtent, RenderOutput,
-    RenderSettings, Window, World,
+    RenderSettings, SurfaceMode, Window, World,
 };
 
 /// A mistake on the command line (a flag or its value): exit status 2. Everything else (an
@@ -163,10 +163,14 @@ fn parse_object_override(s: &str) -> anyhow::Result<(String, ObjectMode)> {
     let Some((name, mode)) = s.rsplit_once('=') else {
         usage!("--object {s:?}: expected NAME=flat or NAME=phong[:ALPHA]");
     };
-    let mode = match mode.split_once(':') {
-        None if mode == "flat" => ObjectMode::Flat,
-        None if mode == "phong" => ObjectMode::Phong { alpha: phongrt::phong::DEFAULT_ALPHA },
-        Some(("phong", a)) => {
+    let (mode_name, alpha) = match mode.split_once(':') {
+        Some((m, a)) => (m, Some(a)),
+        None => (mode, None),
+    };
+    // The names are --mode's (and the scene file's `mode`).
+    let mode = match (<SurfaceMode as clap::ValueEnum>::from_str(mode_name, false), alpha) {
+        (Ok(m), None) => m.with_alpha(phongrt::phong::DEFAULT_ALPHA),
+        (Ok(SurfaceMode::Phong), Some(a)) => {
             let Ok(alpha) = a.parse::<f32>() else {
                 usage!("--object {s:?}: alpha {a:?} is not a number");
             };
@@ -310,32 +314,7 @@ fn gb(bytes: u64) -> String {
 
 /// Resolve and check every option that needs no mesh: all of it happens before loading.
 fn plan(args: &RenderArgs, sf: Option<&SceneFile>) -> anyhow::Result<RenderPlan> {
-    anyhow::ensure!(
-        (0.0..=1.0).contains(&args.alpha),
-        Usage(format!("--alpha {} is not in [0, 1]", args.alpha))
-    );
-    for (flag, v) in [("--width", args.width), ("--height", args.height)] {
-        if let Some(v) = v {
-            if v == 0 || v > 1 << 15 {
-                usage!("{flag} {v}: image size is out of range (1..=32768 per side)");
-            }
-        }
-    }
-    if let Some(s) = args.spp {
-        if s == 0 || s > 1 << 16 {
-            usage!("--spp {s}: samples per pixel is out of range (1..=65536)");
-        }
-    }
-    if let Some(f) = args.camera.fov {
-        if !(f > 0.0 && f < 180.0) {
-            usage!("--fov {f}: the field of view is not in (0, 180) degrees");
-        }
-    }
-    if let Some(u) = args.camera.up {
-        if u.length_squared() == 0.0 {
-            usage!("--up 0,0,0: the up vector must not be zero");
-        }
-    }
+    check_flag_ranges(args)?;
     let width = args.width.or(sf.and_then(|s| s.render.width)).unwrap_or(800);
     let height = args.height.or(sf.and_then(|s| s.render.height)).unwrap_or(600);
     let spp = args.spp.or(sf.and_then(|s| s.render.spp)).unwrap_or(1);
@@ -352,77 +331,15 @@ fn plan(args: &RenderArgs, sf: Option<&SceneFile>) -> anyhow::Result<RenderPlan>
         usage!("--compare renders one whole frame: it does not combine with --crop, --tile, --frames or --alpha-channel");
     }
 
-    // Compute the frames.
-    if let Some(deg) = f.orbit.filter(|d| !d.is_finite()) {
-        usage!("--orbit {deg}: not a finite number of degrees");
-    }
-    let frames = match f.frames {
-        None => None,
-        Some(0) => usage!("--frames 0: must be at least 1"),
-        Some(n) => {
-            if let Some(k) = f.frame {
-                if k >= n {
-                    usage!("--frame {k}: out of range for --frames {n} (0..={})", n - 1);
-                }
-            }
-            Some(Frames { count: n, only: f.frame, orbit_deg: f.orbit.unwrap_or(360.0) })
-        }
-    };
-
-    // Compute the threads: at least 1, at most what the machine has.
-    let threads = match args.threads {
-        Some(0) => usage!("--threads 0: must be at least 1 (leave it out to use every core)"),
-        Some(t) => {
-            let cores = std::thread::available_parallelism().map_or(1, |n| n.get());
-            if t > cores {
-                eprintln!("phongrt: warning: --threads {t}: this machine has {cores} cores; using {cores}");
-                Some(cores)
-            } else {
-                Some(t)
-            }
-        }
-        None => None,
-    };
+    // Compute the frames and the threads.
+    let frames = plan_frames(f)?;
+    let threads = plan_threads(args.threads)?;
 
     // Check the output (and the stats file) before any work.
     let output =
         if args.output.as_os_str() == "-" { Output::Stdout } else { Output::File(args.output.clone()) };
-    let plan_frames = frames;
-    let format = match &output {
-        Output::Stdout => {
-            if std::io::IsTerminal::is_terminal(&std::io::stdout()) {
-                usage!("-o -: stdout is a terminal; redirect it to a file or a pipe");
-            }
-            if plan_frames.is_some_and(|f| f.only.is_none() && f.count > 1) {
-                usage!(
-                    "-o -: {} frames cannot all go to stdout; pick one with --frame I",
-                    plan_frames.map_or(0, |f| f.count)
-                );
-            }
-            ImageFormat::Png
-        }
-        Output::File(p) => {
-            let fmt = ImageFormat::from_path(p).map_err(|e| Usage(format!("-o {}: {e}", p.display())))?;
-            let first = match plan_frames {
-                Some(fr) => frame_path(p, fr.only.unwrap_or(0)),
-                None => p.clone(),
-            };
-            image_out::check_writable(&first)?;
-            fmt
-        }
-    };
-    let stats = match f.stats.as_deref() {
-        None => None,
-        Some("json") => Some(StatsTarget::Print),
-        Some(file) => {
-            let p = PathBuf::from(file);
-            let dir = p.parent().filter(|d| !d.as_os_str().is_empty()).unwrap_or(Path::new("."));
-            if !dir.is_dir() {
-                usage!("--stats {file}: directory {} does not exist", dir.display());
-            }
-            Some(StatsTarget::File(p))
-        }
-    };
+    let format = check_output(&output, frames)?;
+    let stats = plan_stats(f.stats.as_deref())?;
 
     // Estimate the memory before starting.
     let pixels = crop.map_or(width as u64 * height as u64, |c| c.width() as u64 * c.height() as u64)
@@ -453,6 +370,118 @@ fn plan(args: &RenderArgs, sf: Option<&SceneFile>) -> anyhow::Result<RenderPlan>
     })
 }
 
+/// The ranges of --alpha, --width, --height, --spp, --fov and --up (the scene file's values
+/// are checked when it is read).
+fn check_flag_ranges(args: &RenderArgs) -> anyhow::Result<()> {
+    anyhow::ensure!(
+        (0.0..=1.0).contains(&args.alpha),
+        Usage(format!("--alpha {} is not in [0, 1]", args.alpha))
+    );
+    for (flag, v) in [("--width", args.width), ("--height", args.height)] {
+        if let Some(v) = v {
+            if v == 0 || v > 1 << 15 {
+                usage!("{flag} {v}: image size is out of range (1..=32768 per side)");
+            }
+        }
+    }
+    if let Some(s) = args.spp {
+        if s == 0 || s > 1 << 16 {
+            usage!("--spp {s}: samples per pixel is out of range (1..=65536)");
+        }
+    }
+    if let Some(f) = args.camera.fov {
+        if !(f > 0.0 && f < 180.0) {
+            usage!("--fov {f}: the field of view is not in (0, 180) degrees");
+        }
+    }
+    if let Some(u) = args.camera.up {
+        if u.length_squared() == 0.0 {
+            usage!("--up 0,0,0: the up vector must not be zero");
+        }
+    }
+    Ok(())
+}
+
+/// --frames, --frame and --orbit.
+fn plan_frames(f: &cli::FarmArgs) -> anyhow::Result<Option<Frames>> {
+    if let Some(deg) = f.orbit.filter(|d| !d.is_finite()) {
+        usage!("--orbit {deg}: not a finite number of degrees");
+    }
+    match f.frames {
+        None => Ok(None),
+        Some(0) => usage!("--frames 0: must be at least 1"),
+        Some(n) => {
+            if let Some(k) = f.frame {
+                if k >= n {
+                    usage!("--frame {k}: out of range for --frames {n} (0..={})", n - 1);
+                }
+            }
+            Ok(Some(Frames { count: n, only: f.frame, orbit_deg: f.orbit.unwrap_or(360.0) }))
+        }
+    }
+}
+
+/// --threads: at least 1, at most what the machine has (more is a warning).
+fn plan_threads(threads: Option<usize>) -> anyhow::Result<Option<usize>> {
+    match threads {
+        Some(0) => usage!("--threads 0: must be at least 1 (leave it out to use every core)"),
+        Some(t) => {
+            let cores = std::thread::available_parallelism().map_or(1, |n| n.get());
+            if t > cores {
+                eprintln!("phongrt: warning: --threads {t}: this machine has {cores} cores; using {cores}");
+                Ok(Some(cores))
+            } else {
+                Ok(Some(t))
+            }
+        }
+        None => Ok(None),
+    }
+}
+
+/// The output's format, once it is known to be writable (the first frame's file, with
+/// --frames); stdout takes one PNG and must not be a terminal.
+fn check_output(output: &Output, frames: Option<Frames>) -> anyhow::Result<ImageFormat> {
+    match output {
+        Output::Stdout => {
+            if std::io::IsTerminal::is_terminal(&std::io::stdout()) {
+                usage!("-o -: stdout is a terminal; redirect it to a file or a pipe");
+            }
+            if frames.is_some_and(|f| f.only.is_none() && f.count > 1) {
+                usage!(
+                    "-o -: {} frames cannot all go to stdout; pick one with --frame I",
+                    frames.map_or(0, |f| f.count)
+                );
+            }
+            Ok(ImageFormat::Png)
+        }
+        Output::File(p) => {
+            let fmt = ImageFormat::from_path(p).map_err(|e| Usage(format!("-o {}: {e}", p.display())))?;
+            let first = match frames {
+                Some(fr) => frame_path(p, fr.only.unwrap_or(0)),
+                None => p.clone(),
+            };
+            image_out::check_writable(&first)?;
+            Ok(fmt)
+        }
+    }
+}
+
+/// --stats: `json` (printed) or a file in an existing directory.
+fn plan_stats(stats: Option<&str>) -> anyhow::Result<Option<StatsTarget>> {
+    match stats {
+        None => Ok(None),
+        Some("json") => Ok(Some(StatsTarget::Print)),
+        Some(file) => {
+            let p = PathBuf::from(file);
+            let dir = p.parent().filter(|d| !d.as_os_str().is_empty()).unwrap_or(Path::new("."));
+            if !dir.is_dir() {
+                usage!("--stats {file}: directory {} does not exist", dir.display());
+            }
+            Ok(Some(StatsTarget::File(p)))
+        }
+    }
+}
+
 /// Stage times of one run, in seconds.
 #[derive(Clone, Copy, Debug, Default)]
 struct Stages {
@@ -460,250 +489,317 @@ struct Stages {
     build: f64,
 }
 
-fn render_cmd(args: RenderArgs) -> anyhow::Result<()> {
-    let t_start = Instant::now();
-    // A .toml scene names its OBJ; an OBJ may take a scene file with --scene-file.
-    let is_toml = args.scene.extension().is_some_and(|e| e.eq_ignore_ascii_case("toml"));
-    let (obj_path, sf): (PathBuf, Option<SceneFile>) = if is_toml {
-        let sf = SceneFile::load(&args.scene)?;
-        let obj = sf
-            .obj_path(&args.scene)
-            .with_context(|| format!("{}: obj: missing (the OBJ file to render)", args.scene.display()))?;
-        (obj, Some(sf))
-    } else {
-        let sf = args.scene_file.as_deref().map(SceneFile::load).transpose()?;
-        (args.scene.clone(), sf)
-    };
-    // The scene file's path, for messages.
-    let sf_path = if is_toml { args.scene.clone() } else { args.scene_file.clone().unwrap_or_default() };
-    let plan = plan(&args, sf.as_ref())?;
-    let overrides: Vec<(String, ObjectMode)> =
-        args.objects.iter().map(|s| parse_object_override(s)).collect::<anyhow::Result<_>>()?;
-    let crease = sf.as_ref().and_then(|s| s.crease_angle).unwrap_or(args.load.crease_angle);
-    let input = load(&obj_path, &load_options(crease)?)?;
-    for (name, _) in &overrides {
-        if !(name == "*" || input.meshes.iter().any(|m| m.name == *name)) {
-            usage!(
-                "--object {name:?}: no such object (objects: {})",
-                input.meshes.iter().map(|m| m.name.as_str()).collect::<Vec<_>>().join(", ")
-            );
+/// The OBJ to render and the scene file that goes with it: a .toml scene names its OBJ; an OBJ
+/// may take a scene file with --scene-file.
+struct SceneSource {
+    obj: PathBuf,
+    file: Option<SceneFile>,
+    /// The scene file's path, for messages and relative paths (empty without one).
+    file_path: PathBuf,
+}
+
+impl SceneSource {
+    fn resolve(args: &RenderArgs) -> anyhow::Result<SceneSource> {
+        let is_toml = args.scene.extension().is_some_and(|e| e.eq_ignore_ascii_case("toml"));
+        if is_toml {
+            let sf = SceneFile::load(&args.scene)?;
+            let obj = sf.obj_path(&args.scene).with_context(|| {
+                format!("{}: obj: missing (the OBJ file to render)", args.scene.display())
+            })?;
+            return Ok(SceneSource { obj, file: Some(sf), file_path: args.scene.clone() });
         }
+        let file = args.scene_file.as_deref().map(SceneFile::load).transpose()?;
+        Ok(SceneSource {
+            obj: args.scene.clone(),
+            file,
+            file_path: args.scene_file.clone().unwrap_or_default(),
+        })
     }
-    if let Some(sf) = &sf {
-        sf.check_object_names(&sf_path, input.meshes.iter().map(|m| m.name.as_str()))?;
+}
+
+/// Which mode each object gets: the scene file's `[[object]]` entries over --mode/--alpha,
+/// and --object over both.
+#[derive(Clone)]
+struct ModeRules {
+    default: ObjectMode,
+    file_objects: Vec<scene_file::ObjectSection>,
+    overrides: Vec<(String, ObjectMode)>,
+    straight_creases: bool,
+}
+
+impl ModeRules {
+    /// The settings of `mesh`, or `forced` mode for every object.
+    fn settings(&self, forced: Option<ObjectMode>, mesh: &scene::Mesh) -> ObjectSettings {
+        let straight_creases = self.straight_creases;
+        if let Some(mode) = forced {
+            return ObjectSettings { mode, straight_creases };
+        }
+        let mut mode = self.default;
+        for o in self.file_objects.iter().filter(|o| o.name == "*" || o.name == mesh.name) {
+            match (o.mode, o.alpha) {
+                (Some(m), a) => mode = m.with_alpha(a.unwrap_or(phongrt::phong::DEFAULT_ALPHA)),
+                (None, Some(a)) => mode = ObjectMode::Phong { alpha: a },
+                (None, None) => {}
+            }
+        }
+        for (name, m) in &self.overrides {
+            if name == "*" || *name == mesh.name {
+                mode = *m;
+            }
+        }
+        ObjectSettings { mode, straight_creases }
     }
-    let mut stages = Stages { load: t_start.elapsed().as_secs_f64(), ..Stages::default() };
-    let default_mode = match args.mode {
-        Mode::Flat => ObjectMode::Flat,
-        Mode::Phong => ObjectMode::Phong { alpha: args.alpha },
-    };
-    let device = Device::new().context("cannot start Embree")?;
-    let open_creases = args.open_creases;
+}
 
-    let settings_for = |forced: Option<ObjectMode>| {
-        let sf = sf.clone();
-        let overrides = overrides.clone();
-        move |_i: usize, mesh: &scene::Mesh| -> ObjectSettings {
-            if let Some(m) = forced {
-                return ObjectSettings { mode: m, straight_creases: !open_creases };
-            }
-            let mut mode = default_mode;
-            if let Some(sf) = &sf {
-                for o in sf.objects.iter().filter(|o| o.name == "*" || o.name == mesh.name) {
-                    match (o.mode, o.alpha) {
-                        (Some(ModeName::Flat), _) => mode = ObjectMode::Flat,
-                        (Some(ModeName::Phong), a) => {
-                            mode = ObjectMode::Phong { alpha: a.unwrap_or(phongrt::phong::DEFAULT_ALPHA) }
-                        }
-                        (None, Some(a)) => mode = ObjectMode::Phong { alpha: a },
-                        (None, None) => {}
-                    }
-                }
-            }
-            for (name, m) in &overrides {
-                if name == "*" || *name == mesh.name {
-                    mode = *m;
-                }
-            }
-            ObjectSettings { mode, straight_creases: !open_creases }
-        }
-    };
+/// Every choice of a render, resolved once (the command line over the scene file over the
+/// defaults) and checked, with the mesh loaded: what `run` needs and nothing to decide.
+struct RenderJob {
+    plan: RenderPlan,
+    source: SceneSource,
+    input: scene::Scene,
+    modes: ModeRules,
+    settings: RenderSettings,
+    shading: phongrt::phong::ShadingNormal,
+    terminator: render::Terminator,
+    camera: Camera,
+    ground: Option<render::Ground>,
+    stages: Stages,
+}
 
-    let (width, height) = (plan.width, plan.height);
-    let settings = RenderSettings {
-        width,
-        height,
-        spp: plan.spp,
-        threads: plan.threads,
-        progress: !args.quiet,
-        seed: plan.seed,
-        packets: args.packets == cli::Switch::On,
-    };
+impl RenderJob {
+    fn resolve(args: &RenderArgs, t_start: Instant) -> anyhow::Result<RenderJob> {
+        // Resolve the scene source and every option that needs no mesh.
+        let source = SceneSource::resolve(args)?;
+        let sf = source.file.as_ref();
+        let plan = plan(args, sf)?;
+        let overrides: Vec<(String, ObjectMode)> =
+            args.objects.iter().map(|s| parse_object_override(s)).collect::<anyhow::Result<_>>()?;
 
-    // Shading choices: the command line over the scene file over the defaults.
-    let sf_render = sf.as_ref().map(|s| &s.render);
-    let shading = args
-        .shading
-        .or(sf_render.and_then(|r| r.shading.as_deref()).and_then(phongrt::phong::ShadingNormal::from_name))
-        .unwrap_or_default();
-    let terminator = args
-        .terminator
-        .or(sf_render.and_then(|r| r.terminator.as_deref()).and_then(render::Terminator::from_name))
-        .unwrap_or_default();
-    // The camera: the default view (up axis detected unless given, three-quarter front view,
-    // --orbit), then the scene file's and the command line's settings over it.
-    let up_given = args.camera.up.or(sf.as_ref().and_then(|s| s.camera.up).map(Vec3::from));
-    let sf_camera = sf.as_ref().map(|s| s.camera.clone()).unwrap_or_default();
-    let single_orbit = if plan.frames.is_some() { None } else { args.farm.orbit };
-    let camera = {
-        let (mut camera, detection) = render::camera::default_view(
-            &input,
-            up_given,
-            single_orbit.or(sf_camera.orbit).unwrap_or(0.0),
-            args.camera.fov.or(sf_camera.fov),
-            width as f32 / height as f32,
-        );
-        if up_given.is_none() {
-            eprintln!("phongrt: {detection}");
-        }
-        // Where each setting came from, for the message when they do not make a camera.
-        let mut from = ["automatic framing".to_string(), "automatic framing".into(), "detection".into()];
-        let in_file = |key: &str| format!("{} camera.{key}", sf_path.display());
-        if let Some(e) = sf_camera.eye {
-            camera.eye = Vec3::from(e);
-            from[0] = in_file("eye");
-        }
-        if let Some(l) = sf_camera.look_at {
-            camera.look_at = Vec3::from(l);
-            from[1] = in_file("look_at");
-        }
-        if sf_camera.up.is_some() {
-            from[2] = in_file("up");
-        }
-        if let Some(e) = args.camera.eye {
-            camera.eye = e;
-            from[0] = "--eye".into();
-        }
-        if let Some(l) = args.camera.look_at {
-            camera.look_at = l;
-            from[1] = "--look-at".into();
-        }
-        if args.camera.up.is_some() {
-            from[2] = "--up".into();
-        }
-        // (A zero image size makes the framing infinite; render() refuses that size itself.)
-        if let Some(p) = camera.problem().filter(|_| width > 0 && height > 0) {
-            let src = match p {
-                render::CameraProblem::EyeAtLookAt(_) | render::CameraProblem::NonFinite { .. } => {
-                    format!("eye from {}, look_at from {}", from[0], from[1])
-                }
-                render::CameraProblem::UpParallel { .. } => {
-                    format!("up from {}, eye from {}, look_at from {}", from[2], from[0], from[1])
-                }
-                render::CameraProblem::Fov(_) if args.camera.fov.is_some() => "--fov".into(),
-                render::CameraProblem::Fov(_) => in_file("fov"),
-            };
-            // A camera made bad by flags is bad usage; one from a file is bad input.
-            if src.contains("--") {
-                usage!("camera: {p} ({src})");
+        // Load the mesh, and check the object names given for it.
+        let crease = sf.and_then(|s| s.crease_angle).unwrap_or(args.load.crease_angle);
+        let input = load(&source.obj, &load_options(crease)?)?;
+        for (name, _) in &overrides {
+            if !(name == "*" || input.meshes.iter().any(|m| m.name == *name)) {
+                usage!(
+                    "--object {name:?}: no such object (objects: {})",
+                    input.meshes.iter().map(|m| m.name.as_str()).collect::<Vec<_>>().join(", ")
+                );
             }
-            bail!("camera: {p} ({src})");
         }
-        camera
-    };
-    let up = camera.up.normalize_or_zero();
-    let sf_ground = sf.as_ref().and_then(|s| s.ground.clone());
-    let ground = (args.ground || sf_ground.is_some()).then(|| {
-        let g = sf_ground.unwrap_or_default();
-        render::Ground { up, height: g.height, kd: g.kd.map_or(render::Ground::default().kd, Vec3::from) }
-    });
+        if let Some(sf) = sf {
+            sf.check_object_names(&source.file_path, input.meshes.iter().map(|m| m.name.as_str()))?;
+        }
+        let stages = Stages { load: t_start.elapsed().as_secs_f64(), ..Stages::default() };
 
-    let build = |forced: Option<ObjectMode>| -> anyhow::Result<World> {
-        let mut world = World::from_scene_with_ground(&device, &input, ground, settings_for(forced))?;
-        world.shading = shading;
-        world.terminator = terminator;
+        // Resolve the surfaces: modes, shading normal, terminator.
+        let modes = ModeRules {
+            default: args.mode.with_alpha(args.alpha),
+            file_objects: sf.map(|s| s.objects.clone()).unwrap_or_default(),
+            overrides,
+            straight_creases: !args.open_creases,
+        };
+        let sf_render = sf.map(|s| &s.render);
+        let shading = args
+            .shading
+            .or(sf_render
+                .and_then(|r| r.shading.as_deref())
+                .and_then(phongrt::phong::ShadingNormal::from_name))
+            .unwrap_or_default();
+        let terminator = args
+            .terminator
+            .or(sf_render.and_then(|r| r.terminator.as_deref()).and_then(render::Terminator::from_name))
+            .unwrap_or_default();
+
+        // Resolve the camera and the ground under it.
+        let camera = resolve_camera(args, &source, &plan, &input)?;
+        let up = camera.up.normalize_or_zero();
+        let sf_ground = sf.and_then(|s| s.ground.clone());
+        let ground = (args.ground || sf_ground.is_some()).then(|| {
+            let g = sf_ground.unwrap_or_default();
+            render::Ground { up, height: g.height, kd: g.kd.map_or(render::Ground::default().kd, Vec3::from) }
+        });
+        let settings = RenderSettings {
+            width: plan.width,
+            height: plan.height,
+            spp: plan.spp,
+            threads: plan.threads,
+            progress: !args.quiet,
+            seed: plan.seed,
+            packets: args.packets == cli::Switch::On,
+        };
+        Ok(RenderJob { plan, source, input, modes, settings, shading, terminator, camera, ground, stages })
+    }
+
+    /// The world to render: every object in its mode (or all in `forced`), the key light
+    /// following the camera unless the scene file places lights, and the scene file's settings.
+    fn world(&self, device: &Device, forced: Option<ObjectMode>) -> anyhow::Result<World> {
+        let mut world = World::from_scene_with_ground(device, &self.input, self.ground, |_, mesh| {
+            self.modes.settings(forced, mesh)
+        })?;
+        world.shading = self.shading;
+        world.terminator = self.terminator;
         if forced.is_none() {
             for w in &world.warnings {
                 eprintln!("phongrt: warning: {w}");
             }
         }
-        // The key light follows the camera, unless the scene file places lights.
         world.lights = vec![Light::Directional {
-            direction: camera.key_light_direction(),
+            direction: self.camera.key_light_direction(),
             radiance: Vec3::splat(0.85),
             shadows: true,
         }];
-        if let Some(sf) = &sf {
-            apply_scene_file(&mut world, sf);
-            if let Some(e) = &sf.environment {
-                let source = match (&e.color, &e.map) {
-                    (Some(c), _) => render::EnvironmentSource::Constant(Vec3::from(*c)),
-                    (None, Some(m)) => {
-                        let base = if is_toml {
-                            args.scene.parent()
-                        } else {
-                            args.scene_file.as_deref().and_then(Path::parent)
-                        };
-                        let path = base.unwrap_or(Path::new(".")).join(m);
-                        let texture = render::Environment::load_map(&path).map_err(anyhow::Error::msg)?;
-                        render::EnvironmentSource::Map { texture: std::sync::Arc::new(texture), up }
-                    }
-                    (None, None) => bail!("environment: give color or map"),
-                };
-                world.environment = Some(render::Environment { source, samples: e.samples.unwrap_or(16) });
-            }
+        let Some(sf) = &self.source.file else {
+            return Ok(world);
+        };
+        apply_scene_file(&mut world, sf);
+        if let Some(e) = &sf.environment {
+            let source = match (&e.color, &e.map) {
+                (Some(c), _) => render::EnvironmentSource::Constant(Vec3::from(*c)),
+                (None, Some(m)) => {
+                    let path = self.source.file_path.parent().unwrap_or(Path::new(".")).join(m);
+                    let texture = render::Environment::load_map(&path).map_err(anyhow::Error::msg)?;
+                    let up = self.camera.up.normalize_or_zero();
+                    render::EnvironmentSource::Map { texture: std::sync::Arc::new(texture), up }
+                }
+                (None, None) => bail!("environment: give color or map"),
+            };
+            world.environment = Some(render::Environment { source, samples: e.samples.unwrap_or(16) });
         }
         Ok(world)
-    };
-
-    if args.compare {
-        // Flat everywhere on the left; on the right each object as a plain render makes it (the
-        // scene file's and --object's per-object mode and alpha).
-        let t = Instant::now();
-        let flat = build(Some(ObjectMode::Flat))?;
-        let phong = build(None)?;
-        stages.build = t.elapsed().as_secs_f64();
-        eprintln!("phongrt: {}", phong.effects());
-        let a = render::render(&flat, &camera, &settings)?;
-        report("flat", &a);
-        let b = render::render(&phong, &camera, &settings)?;
-        report("phong", &b);
-        let ms = |o: &RenderOutput| o.elapsed.as_secs_f64() * 1e3;
-        let img = render::compare_panel(
-            &a.image,
-            &b.image,
-            &format!("flat {:.1} ms", ms(&a)),
-            &format!("phong {:.1} ms ({:.2}x)", ms(&b), ms(&b) / ms(&a).max(1e-9)),
-        );
-        let t = Instant::now();
-        let bytes = image_out::encode(&img, plan.format, &EncodeOptions::default())?;
-        write_output(&plan.output, &bytes)?;
-        let write = t.elapsed().as_secs_f64();
-        eprintln!("phongrt: wrote {} (flat | phong | difference)", plan.output.name());
-        let frames = [
-            frame_stats(&plan, None, &plan.output, &a, write),
-            frame_stats(&plan, None, &plan.output, &b, 0.0),
-        ];
-        return write_stats(&plan, &stages, &phong, &frames, t_start);
     }
+}
 
+/// The camera: the default view (up axis detected unless given, three-quarter front view,
+/// --orbit), then the scene file's and the command line's settings over it. A camera that makes
+/// no image is an error naming where each setting came from.
+fn resolve_camera(
+    args: &RenderArgs,
+    source: &SceneSource,
+    plan: &RenderPlan,
+    input: &scene::Scene,
+) -> anyhow::Result<Camera> {
+    let sf = source.file.as_ref();
+    let (width, height) = (plan.width, plan.height);
+    let up_given = args.camera.up.or(sf.and_then(|s| s.camera.up).map(Vec3::from));
+    let sf_camera = sf.map(|s| s.camera.clone()).unwrap_or_default();
+    let single_orbit = if plan.frames.is_some() { None } else { args.farm.orbit };
+    let (mut camera, detection) = render::camera::default_view(
+        input,
+        up_given,
+        single_orbit.or(sf_camera.orbit).unwrap_or(0.0),
+        args.camera.fov.or(sf_camera.fov),
+        width as f32 / height as f32,
+    );
+    if up_given.is_none() {
+        eprintln!("phongrt: {detection}");
+    }
+    // Apply the settings, noting where each came from.
+    let mut from = ["automatic framing".to_string(), "automatic framing".into(), "detection".into()];
+    let in_file = |key: &str| format!("{} camera.{key}", source.file_path.display());
+    if let Some(e) = sf_camera.eye {
+        camera.eye = Vec3::from(e);
+        from[0] = in_file("eye");
+    }
+    if let Some(l) = sf_camera.look_at {
+        camera.look_at = Vec3::from(l);
+        from[1] = in_file("look_at");
+    }
+    if sf_camera.up.is_some() {
+        from[2] = in_file("up");
+    }
+    if let Some(e) = args.camera.eye {
+        camera.eye = e;
+        from[0] = "--eye".into();
+    }
+    if let Some(l) = args.camera.look_at {
+        camera.look_at = l;
+        from[1] = "--look-at".into();
+    }
+    if args.camera.up.is_some() {
+        from[2] = "--up".into();
+    }
+    // Check it. (A zero image size makes the framing infinite; render() refuses that size itself.)
+    if let Some(p) = camera.problem().filter(|_| width > 0 && height > 0) {
+        let src = match p {
+            render::CameraProblem::EyeAtLookAt(_) | render::CameraProblem::NonFinite { .. } => {
+                format!("eye from {}, look_at from {}", from[0], from[1])
+            }
+            render::CameraProblem::UpParallel { .. } => {
+                format!("up from {}, eye from {}, look_at from {}", from[2], from[0], from[1])
+            }
+            render::CameraProblem::Fov(_) if args.camera.fov.is_some() => "--fov".into(),
+            render::CameraProblem::Fov(_) => in_file("fov"),
+        };
+        // A camera made bad by flags is bad usage; one from a file is bad input.
+        if src.contains("--") {
+            usage!("camera: {p} ({src})");
+        }
+        bail!("camera: {p} ({src})");
+    }
+    Ok(camera)
+}
+
+fn render_cmd(args: RenderArgs) -> anyhow::Result<()> {
+    let t_start = Instant::now();
+    let job = RenderJob::resolve(&args, t_start)?;
+    let device = Device::new().context("cannot start Embree")?;
+    if args.compare {
+        run_compare(job, &device, t_start)
+    } else {
+        run_frames(job, &device, t_start)
+    }
+}
+
+/// `--compare`: flat everywhere on the left; on the right each object as a plain render makes
+/// it (the scene file's and --object's per-object mode and alpha); their difference.
+fn run_compare(mut job: RenderJob, device: &Device, t_start: Instant) -> anyhow::Result<()> {
     let t = Instant::now();
-    let world = build(None)?;
-    stages.build = t.elapsed().as_secs_f64();
+    let flat = job.world(device, Some(ObjectMode::Flat))?;
+    let phong = job.world(device, None)?;
+    job.stages.build = t.elapsed().as_secs_f64();
+    eprintln!("phongrt: {}", phong.effects());
+    let a = render::render(&flat, &job.camera, &job.settings)?;
+    report("flat", &a);
+    let b = render::render(&phong, &job.camera, &job.settings)?;
+    report("phong", &b);
+    let ms = |o: &RenderOutput| o.elapsed.as_secs_f64() * 1e3;
+    let img = render::compare_panel(
+        &a.image,
+        &b.image,
+        &format!("flat {:.1} ms", ms(&a)),
+        &format!("phong {:.1} ms ({:.2}x)", ms(&b), ms(&b) / ms(&a).max(1e-9)),
+    );
+    let plan = &job.plan;
+    let t = Instant::now();
+    let bytes = image_out::encode(&img, plan.format, &EncodeOptions::default())?;
+    write_output(&plan.output, &bytes)?;
+    let write = t.elapsed().as_secs_f64();
+    eprintln!("phongrt: wrote {} (flat | phong | difference)", plan.output.name());
+    let frames =
+        [frame_stats(plan, None, &plan.output, &a, write), frame_stats(plan, None, &plan.output, &b, 0.0)];
+    write_stats(plan, &job.stages, &phong, &frames, t_start)
+}
+
+/// Every frame of the plan (one without --frames), each written as soon as it is rendered.
+fn run_frames(mut job: RenderJob, device: &Device, t_start: Instant) -> anyhow::Result<()> {
+    let t = Instant::now();
+    let world = job.world(device, None)?;
+    job.stages.build = t.elapsed().as_secs_f64();
     eprintln!("phongrt: {}", world.effects());
-    let base = camera;
+    let plan = &job.plan;
     let extent = RenderExtent { crop: plan.crop, alpha: plan.alpha };
     let mut frames = Vec::new();
     for (k, output) in plan.outputs() {
         // Compute the frame's camera: an orbit of the eye about the look-at point.
         let camera = match (k, plan.frames) {
-            (Some(k), Some(f)) => orbit(&base, f.orbit_deg * k as f32 / f.count as f32),
-            _ => base,
+            (Some(k), Some(f)) => orbit(&job.camera, f.orbit_deg * k as f32 / f.count as f32),
+            _ => job.camera,
         };
         if let Some(p) = camera.problem() {
             bail!("camera of frame {}: {p} (the orbit of --frames)", k.unwrap_or(0));
         }
-        let out = render::render_extent(&world, &camera, &settings, &extent)?;
+        // Render, encode and write it.
+        let out = render::render_extent(&world, &camera, &job.settings, &extent)?;
         let t = Instant::now();
         let window = out.window;
         let opts =
@@ -721,9 +817,9 @@ fn render_cmd(args: RenderArgs) -> anyhow::Result<()> {
             );
         }
         report(&output.name(), &out);
-        frames.push(frame_stats(&plan, k, &output, &out, write));
+        frames.push(frame_stats(plan, k, &output, &out, write));
     }
-    write_stats(&plan, &stages, &world, &frames, t_start)
+    write_stats(plan, &job.stages, &world, &frames, t_start)
 }
 
 /// The camera turned by `deg` about its up vector, around the look-at point.
@@ -739,7 +835,7 @@ fn orbit(c: &Camera, deg: f32) -> Camera {
 /// Write the encoded image: a file replaced only by a complete one, or stdout, every write checked.
 fn write_output(output: &Output, bytes: &[u8]) -> anyhow::Result<()> {
     match output {
-        Output::File(p) => image_out::write_atomically(p, bytes),
+        Output::File(p) => Ok(image_out::write_atomically(p, bytes)?),
         Output::Stdout => {
             let mut out = std::io::stdout().lock();
             out.write_all(bytes).context("-: cannot write the image to stdout")?;
@@ -1066,7 +1162,7 @@ fn save_plot(img: &image::RgbImage, path: &Path) -> anyhow::Result<()> {
     let mut bytes = Vec::new();
     img.write_to(&mut std::io::Cursor::new(&mut bytes), image::ImageFormat::Png)
         .with_context(|| format!("{}: cannot encode PNG", path.display()))?;
-    image_out::write_atomically(path, &bytes)
+    Ok(image_out::write_atomically(path, &bytes)?)
 }
 
 fn report(what: &str, out: &RenderOutput) {

@@ -36,7 +36,7 @@ struct Call {
 /// A user geometry that logs each intersect call before answering it.
 struct Recording<T> {
     inner: Arc<T>,
-    calls: Arc<Mutex<Vec<Call>>>,
+    calls: CallLog,
 }
 
 impl<T: UserPrimitives> UserPrimitives for Recording<T> {
@@ -75,11 +75,14 @@ impl RayKind {
     }
 }
 
+/// The calls a [`Recording`] geometry logs, shared with the code that reads them.
+type CallLog = Arc<Mutex<Vec<Call>>>;
+
 /// A scene of `prims` whose calls are logged into the returned log.
 fn recording_scene<T: UserPrimitives>(
     device: &Device,
     prims: Arc<T>,
-) -> Result<(Scene, Arc<Mutex<Vec<Call>>>), BenchError> {
+) -> Result<(Scene, CallLog), BenchError> {
     let calls = Arc::new(Mutex::new(Vec::new()));
     let mut scene = Scene::new(device)?;
     scene.attach_user(Recording { inner: prims, calls: calls.clone() }, UserGeometryOptions::default())?;
@@ -189,10 +192,10 @@ struct Solve {
 /// (recording), and a plain scene of the Phong mesh for timing.
 struct Scenes {
     mesh: Arc<PhongMesh>,
-    recording: (Scene, Arc<Mutex<Vec<Call>>>),
+    recording: (Scene, CallLog),
     direct: Scene,
     flat: Scene,
-    floor: (Scene, Arc<Mutex<Vec<Call>>>),
+    floor: (Scene, CallLog),
 }
 
 impl Scenes {

@@ -5,8 +5,162 @@
 use std::io::Write;
 use std::path::{Path, PathBuf};
 
-use anyhow::{bail, Context};
 use glam::Vec3;
+
+/// Why an image could not be encoded, written or read back: one line naming the file (encoding
+/// works in memory and names none). An I/O or codec cause is the `source()`, so a caller printing
+/// the chain gets `FILE: cannot write: No space left on device (os error 28)`.
+#[derive(Debug, thiserror::Error)]
+pub enum ImageError {
+    /// The path's extension is neither `.png` nor `.exr`.
+    #[error("{path}: unknown image extension (use .png or .exr)")]
+    UnknownExtension {
+        /// The output or tile path.
+        path: PathBuf,
+    },
+    /// [`EncodeOptions::alpha`] has a length other than the pixel count.
+    #[error("alpha has {alpha} values for {pixels} pixels")]
+    AlphaLength {
+        /// The number of alpha values.
+        alpha: usize,
+        /// The number of pixels.
+        pixels: usize,
+    },
+    /// The PNG encoder failed.
+    #[error("cannot encode PNG")]
+    EncodePng(#[source] png::EncodingError),
+    /// The EXR encoder failed.
+    #[error("cannot encode EXR")]
+    EncodeExr(#[source] exr::error::Error),
+    /// The output path is a directory.
+    #[error("{path}: is a directory")]
+    IsDirectory {
+        /// The output path.
+        path: PathBuf,
+    },
+    /// A device or FIFO output does not open for writing.
+    #[error("{path}: cannot open for writing")]
+    Open {
+        /// The output path.
+        path: PathBuf,
+        /// Why.
+        #[source]
+        source: std::io::Error,
+    },
+    /// Writing, syncing or renaming the output failed (the old file, if any, is left as it was).
+    #[error("{path}: cannot write")]
+    Write {
+        /// The output path.
+        path: PathBuf,
+        /// Why.
+        #[source]
+        source: std::io::Error,
+    },
+    /// The encoded image is larger than the process may write (`ulimit -f`).
+    #[error(
+        "{path}: the image is {bytes} bytes, more than the file-size limit (ulimit -f) of {limit} bytes"
+    )]
+    FileSizeLimit {
+        /// The output path.
+        path: PathBuf,
+        /// The encoded size.
+        bytes: usize,
+        /// The limit, in bytes.
+        limit: u64,
+    },
+    /// The output's parent exists but is not a directory.
+    #[error("{path}: {} is not a directory", .dir.display())]
+    ParentNotADirectory {
+        /// The output path.
+        path: PathBuf,
+        /// Its parent.
+        dir: PathBuf,
+    },
+    /// The output's directory does not exist.
+    #[error("{path}: directory {} does not exist", .dir.display())]
+    NoDirectory {
+        /// The output path.
+        path: PathBuf,
+        /// Its directory.
+        dir: PathBuf,
+    },
+    /// No file can be created in the output's directory (the cause is part of the message).
+    #[error("{path}: directory {} is not writable ({reason})", .dir.display())]
+    DirectoryNotWritable {
+        /// The output path.
+        path: PathBuf,
+        /// Its directory.
+        dir: PathBuf,
+        /// The error creating a probe file there.
+        reason: std::io::Error,
+    },
+    /// A tile file does not open.
+    #[error("{path}: cannot read")]
+    Read {
+        /// The tile path.
+        path: PathBuf,
+        /// Why.
+        #[source]
+        source: std::io::Error,
+    },
+    /// A tile is not a PNG the decoder can read.
+    #[error("{path}: not a readable PNG")]
+    DecodePng {
+        /// The tile path.
+        path: PathBuf,
+        /// Why.
+        #[source]
+        source: png::DecodingError,
+    },
+    /// A tile's PNG is not 8-bit RGB or RGBA.
+    #[error("{path}: {color:?} {depth:?} PNG is not an image phongrt writes (8-bit RGB/RGBA)")]
+    UnsupportedPng {
+        /// The tile path.
+        path: PathBuf,
+        /// Its colour type.
+        color: png::ColorType,
+        /// Its bit depth.
+        depth: png::BitDepth,
+    },
+    /// A tile's `phongrt:window` text chunk does not parse as a [`Window`].
+    #[error("{path}: malformed {WINDOW_KEY} {text:?}")]
+    MalformedWindow {
+        /// The tile path.
+        path: PathBuf,
+        /// The chunk's text.
+        text: String,
+    },
+    /// A tile's PNG is too large for this machine's address space.
+    #[error("PNG too large")]
+    PngTooLarge,
+    /// A tile is not an EXR the decoder can read.
+    #[error("{path}: not a readable EXR")]
+    DecodeExr {
+        /// The tile path.
+        path: PathBuf,
+        /// Why.
+        #[source]
+        source: exr::error::Error,
+    },
+    /// A tile's EXR layer starts left of or above the frame.
+    #[error("{path}: negative layer position")]
+    NegativeLayerPosition {
+        /// The tile path.
+        path: PathBuf,
+    },
+    /// A tile's recorded window is not its pixel size or not inside its frame.
+    #[error("{path}: window {} does not match its {width}x{height} pixels", .window.to_text())]
+    WindowSize {
+        /// The tile path.
+        path: PathBuf,
+        /// The recorded window.
+        window: Window,
+        /// The tile's width in pixels.
+        width: u32,
+        /// The tile's height in pixels.
+        height: u32,
+    },
+}
 
 /// A linear-light RGB image, row-major from the top-left pixel.
 #[derive(Clone, Debug, PartialEq)]
@@ -61,7 +215,7 @@ impl Image {
 
     /// Write as sRGB PNG or compressed linear EXR, chosen by the extension, with
     /// [`write_atomically`]: the file at `path` is replaced only by a complete image.
-    pub fn save(&self, path: &Path) -> anyhow::Result<()> {
+    pub fn save(&self, path: &Path) -> Result<(), ImageError> {
         let format = ImageFormat::from_path(path)?;
         let bytes = encode(self, format, &EncodeOptions::default())?;
         write_atomically(path, &bytes)
@@ -79,12 +233,12 @@ pub enum ImageFormat {
 
 impl ImageFormat {
     /// The format named by a path's extension (`.png` or `.exr`, any case).
-    pub fn from_path(path: &Path) -> anyhow::Result<ImageFormat> {
+    pub fn from_path(path: &Path) -> Result<ImageFormat, ImageError> {
         let ext = path.extension().and_then(|e| e.to_str()).map(|e| e.to_ascii_lowercase());
         match ext.as_deref() {
             Some("png") => Ok(ImageFormat::Png),
             Some("exr") => Ok(ImageFormat::Exr),
-            _ => bail!("{}: unknown image extension (use .png or .exr)", path.display()),
+            _ => Err(ImageError::UnknownExtension { path: path.to_path_buf() }),
         }
     }
 }
@@ -160,14 +314,9 @@ pub struct EncodeOptions<'a> {
 }
 
 /// Encode an image in memory.
-pub fn encode(img: &Image, format: ImageFormat, opts: &EncodeOptions) -> anyhow::Result<Vec<u8>> {
-    if let Some(a) = opts.alpha {
-        anyhow::ensure!(
-            a.len() == img.pixels.len(),
-            "alpha has {} values for {} pixels",
-            a.len(),
-            img.pixels.len()
-        );
+pub fn encode(img: &Image, format: ImageFormat, opts: &EncodeOptions) -> Result<Vec<u8>, ImageError> {
+    if let Some(a) = opts.alpha.filter(|a| a.len() != img.pixels.len()) {
+        return Err(ImageError::AlphaLength { alpha: a.len(), pixels: img.pixels.len() });
     }
     match format {
         ImageFormat::Png => {
@@ -197,7 +346,7 @@ pub fn encode_png8(
     rgba: bool,
     data: &[u8],
     window: Option<Window>,
-) -> anyhow::Result<Vec<u8>> {
+) -> Result<Vec<u8>, ImageError> {
     let mut out = Vec::new();
     {
         let mut enc = png::Encoder::new(&mut out, w, h);
@@ -205,16 +354,16 @@ pub fn encode_png8(
         enc.set_depth(png::BitDepth::Eight);
         enc.set_source_srgb(png::SrgbRenderingIntent::Perceptual);
         if let Some(win) = window {
-            enc.add_text_chunk(WINDOW_KEY.to_string(), win.to_text()).context("cannot encode PNG")?;
+            enc.add_text_chunk(WINDOW_KEY.to_string(), win.to_text()).map_err(ImageError::EncodePng)?;
         }
-        let mut writer = enc.write_header().context("cannot encode PNG")?;
-        writer.write_image_data(data).context("cannot encode PNG")?;
-        writer.finish().context("cannot encode PNG")?;
+        let mut writer = enc.write_header().map_err(ImageError::EncodePng)?;
+        writer.write_image_data(data).map_err(ImageError::EncodePng)?;
+        writer.finish().map_err(ImageError::EncodePng)?;
     }
     Ok(out)
 }
 
-fn encode_exr(img: &Image, opts: &EncodeOptions) -> anyhow::Result<Vec<u8>> {
+fn encode_exr(img: &Image, opts: &EncodeOptions) -> Result<Vec<u8>, ImageError> {
     use exr::prelude::*;
     let (w, h) = (img.width as usize, img.height as usize);
     let win = opts.window.unwrap_or(Window::full(img.width, img.height));
@@ -255,7 +404,7 @@ fn encode_exr(img: &Image, opts: &EncodeOptions) -> anyhow::Result<Vec<u8>> {
             image.write().to_buffered(std::io::Cursor::new(&mut buf))
         }
     };
-    result.context("cannot encode EXR")?;
+    result.map_err(ImageError::EncodeExr)?;
     Ok(buf)
 }
 
@@ -272,30 +421,26 @@ fn file_size_limit() -> Option<u64> {
 /// file (a device such as `/dev/stdout` or `/dev/full`, a FIFO) is written directly, every write
 /// and the flush checked. An image larger than the file-size limit (`ulimit -f`) is refused
 /// before anything is written.
-pub fn write_atomically(path: &Path, bytes: &[u8]) -> anyhow::Result<()> {
-    let name = path.display();
+pub fn write_atomically(path: &Path, bytes: &[u8]) -> Result<(), ImageError> {
+    let path_buf = || path.to_path_buf();
+    let write_error = |source| ImageError::Write { path: path_buf(), source };
     // Follow a symlink to where the bytes will really go.
     let target: PathBuf = std::fs::canonicalize(path).unwrap_or_else(|_| path.to_path_buf());
     let meta = std::fs::metadata(&target).ok();
     if meta.as_ref().is_some_and(|m| m.is_dir()) {
-        bail!("{name}: is a directory");
+        return Err(ImageError::IsDirectory { path: path_buf() });
     }
     if meta.as_ref().is_some_and(|m| !m.is_file()) {
         let mut f = std::fs::OpenOptions::new()
             .write(true)
             .open(&target)
-            .with_context(|| format!("{name}: cannot open for writing"))?;
-        f.write_all(bytes).with_context(|| format!("{name}: cannot write"))?;
-        f.flush().with_context(|| format!("{name}: cannot write"))?;
+            .map_err(|source| ImageError::Open { path: path_buf(), source })?;
+        f.write_all(bytes).map_err(write_error)?;
+        f.flush().map_err(write_error)?;
         return Ok(());
     }
-    if let Some(limit) = file_size_limit() {
-        if bytes.len() as u64 > limit {
-            bail!(
-                "{name}: the image is {} bytes, more than the file-size limit (ulimit -f) of {limit} bytes",
-                bytes.len()
-            );
-        }
+    if let Some(limit) = file_size_limit().filter(|&l| bytes.len() as u64 > l) {
+        return Err(ImageError::FileSizeLimit { path: path_buf(), bytes: bytes.len(), limit });
     }
     let dir = match target.parent() {
         Some(d) if !d.as_os_str().is_empty() => d.to_path_buf(),
@@ -310,20 +455,19 @@ pub fn write_atomically(path: &Path, bytes: &[u8]) -> anyhow::Result<()> {
         drop(f);
         std::fs::rename(&tmp, &target)
     };
-    if let Err(e) = write() {
+    write().map_err(|e| {
         let _ = std::fs::remove_file(&tmp);
-        return Err(e).with_context(|| format!("{name}: cannot write"));
-    }
-    Ok(())
+        write_error(e)
+    })
 }
 
 /// Check, before any work, that an image can be written at `path`: a known extension, an
 /// existing directory in which a file can be created (tried), and not a directory itself.
-pub fn check_writable(path: &Path) -> anyhow::Result<ImageFormat> {
+pub fn check_writable(path: &Path) -> Result<ImageFormat, ImageError> {
     let format = ImageFormat::from_path(path)?;
-    let name = path.display();
+    let path_buf = || path.to_path_buf();
     if std::fs::metadata(path).is_ok_and(|m| m.is_dir()) {
-        bail!("{name}: is a directory");
+        return Err(ImageError::IsDirectory { path: path_buf() });
     }
     let target: PathBuf = std::fs::canonicalize(path).unwrap_or_else(|_| path.to_path_buf());
     if std::fs::metadata(&target).is_ok_and(|m| !m.is_file()) {
@@ -331,7 +475,7 @@ pub fn check_writable(path: &Path) -> anyhow::Result<ImageFormat> {
         std::fs::OpenOptions::new()
             .write(true)
             .open(&target)
-            .with_context(|| format!("{name}: cannot open for writing"))?;
+            .map_err(|source| ImageError::Open { path: path_buf(), source })?;
         return Ok(format);
     }
     let dir = match target.parent() {
@@ -340,15 +484,15 @@ pub fn check_writable(path: &Path) -> anyhow::Result<ImageFormat> {
     };
     match std::fs::metadata(&dir) {
         Ok(m) if m.is_dir() => {}
-        Ok(_) => bail!("{name}: {} is not a directory", dir.display()),
-        Err(_) => bail!("{name}: directory {} does not exist", dir.display()),
+        Ok(_) => return Err(ImageError::ParentNotADirectory { path: path_buf(), dir }),
+        Err(_) => return Err(ImageError::NoDirectory { path: path_buf(), dir }),
     }
     let probe = dir.join(format!(".phongrt-probe.{}.tmp", std::process::id()));
     match std::fs::OpenOptions::new().write(true).create_new(true).open(&probe) {
         Ok(_) => {
             let _ = std::fs::remove_file(&probe);
         }
-        Err(e) => bail!("{name}: directory {} is not writable ({e})", dir.display()),
+        Err(reason) => return Err(ImageError::DirectoryNotWritable { path: path_buf(), dir, reason }),
     }
     Ok(format)
 }
@@ -372,32 +516,36 @@ pub struct Tile {
 }
 
 /// Read a PNG or EXR written by `phongrt render` (any crop or tile of it).
-pub fn read_tile(path: &Path) -> anyhow::Result<Tile> {
-    let name = path.display();
+pub fn read_tile(path: &Path) -> Result<Tile, ImageError> {
+    let path_buf = || path.to_path_buf();
+    let png_error = |source| ImageError::DecodePng { path: path_buf(), source };
     match ImageFormat::from_path(path)? {
         ImageFormat::Png => {
-            let f = std::fs::File::open(path).with_context(|| format!("{name}: cannot read"))?;
+            let f =
+                std::fs::File::open(path).map_err(|source| ImageError::Read { path: path_buf(), source })?;
             let mut dec = png::Decoder::new(std::io::BufReader::new(f));
             dec.set_transformations(png::Transformations::IDENTITY);
-            let mut reader = dec.read_info().with_context(|| format!("{name}: not a readable PNG"))?;
+            let mut reader = dec.read_info().map_err(png_error)?;
             let info = reader.info();
             let (w, h) = (info.width, info.height);
             let channels = match (info.color_type, info.bit_depth) {
                 (png::ColorType::Rgb, png::BitDepth::Eight) => 3,
                 (png::ColorType::Rgba, png::BitDepth::Eight) => 4,
-                (c, d) => bail!("{name}: {c:?} {d:?} PNG is not an image phongrt writes (8-bit RGB/RGBA)"),
+                (color, depth) => return Err(ImageError::UnsupportedPng { path: path_buf(), color, depth }),
             };
             let text = info.uncompressed_latin1_text.iter().find(|t| t.keyword == WINDOW_KEY);
             let (window, has_window) = match text {
                 Some(t) => (
-                    Window::from_text(&t.text)
-                        .with_context(|| format!("{name}: malformed {WINDOW_KEY} {:?}", t.text))?,
+                    Window::from_text(&t.text).ok_or_else(|| ImageError::MalformedWindow {
+                        path: path_buf(),
+                        text: t.text.clone(),
+                    })?,
                     true,
                 ),
                 None => (Window::full(w, h), false),
             };
-            let mut data = vec![0u8; reader.output_buffer_size().context("PNG too large")?];
-            reader.next_frame(&mut data).with_context(|| format!("{name}: not a readable PNG"))?;
+            let mut data = vec![0u8; reader.output_buffer_size().ok_or(ImageError::PngTooLarge)?];
+            reader.next_frame(&mut data).map_err(png_error)?;
             data.truncate(w as usize * h as usize * channels);
             check_size(path, &window, w, h)?;
             Ok(Tile { window, pixels: TilePixels::Srgb8 { channels, data }, has_window })
@@ -419,13 +567,15 @@ pub fn read_tile(path: &Path) -> anyhow::Result<Tile> {
                 .first_valid_layer()
                 .all_attributes()
                 .from_file(path)
-                .with_context(|| format!("{name}: not a readable EXR"))?;
+                .map_err(|source| ImageError::DecodeExr { path: path_buf(), source })?;
             let layer = &img.layer_data;
             let (res, has_alpha, buf) = &layer.channel_data.pixels;
             let pos = layer.attributes.layer_position;
             let disp = img.attributes.display_window;
             let (w, h) = (res.x() as u32, res.y() as u32);
-            anyhow::ensure!(pos.x() >= 0 && pos.y() >= 0, "{name}: negative layer position");
+            if pos.x() < 0 || pos.y() < 0 {
+                return Err(ImageError::NegativeLayerPosition { path: path_buf() });
+            }
             let window = Window {
                 x0: pos.x() as u32,
                 y0: pos.y() as u32,
@@ -446,12 +596,9 @@ pub fn read_tile(path: &Path) -> anyhow::Result<Tile> {
     }
 }
 
-fn check_size(path: &Path, win: &Window, w: u32, h: u32) -> anyhow::Result<()> {
-    anyhow::ensure!(
-        win.width() == w && win.height() == h && win.x1 <= win.full_width && win.y1 <= win.full_height,
-        "{}: window {} does not match its {w}x{h} pixels",
-        path.display(),
-        win.to_text()
-    );
-    Ok(())
+fn check_size(path: &Path, win: &Window, w: u32, h: u32) -> Result<(), ImageError> {
+    if win.width() == w && win.height() == h && win.x1 <= win.full_width && win.y1 <= win.full_height {
+        return Ok(());
+    }
+    Err(ImageError::WindowSize { path: path.to_path_buf(), window: *win, width: w, height: h })
 }

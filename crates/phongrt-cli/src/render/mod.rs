@@ -20,7 +20,7 @@ pub use camera::{detect_up, Camera, CameraFrame, CameraProblem, UpDetection, Vie
 pub use image_out::{linear_to_srgb, Image, Window};
 pub use world::{
     AmbientOcclusion, Effects, Environment, EnvironmentSource, Ground, Light, ObjectMode, ObjectSettings,
-    Rng, Surface, Terminator, World,
+    Rng, Surface, SurfaceMode, Terminator, World,
 };
 
 use phongrt::embree::{self, EmbreeError, PhongMeshError, Ray, PACKET8};

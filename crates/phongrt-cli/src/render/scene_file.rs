@@ -34,6 +34,8 @@ use serde::Deserialize;
 
 use phongrt::scene::ReadFailure;
 
+use super::world::SurfaceMode;
+
 /// The most a scene file may hold (16 MiB).
 pub const MAX_SCENE_FILE_BYTES: u64 = 16 << 20;
 
@@ -175,19 +177,12 @@ fn sixteen() -> u32 {
     16
 }
 
-#[derive(Debug, Deserialize, Clone, Copy, PartialEq, Eq)]
-#[serde(rename_all = "lowercase")]
-pub enum ModeName {
-    Flat,
-    Phong,
-}
-
 #[derive(Debug, Deserialize, Clone, PartialEq)]
 #[serde(deny_unknown_fields)]
 pub struct ObjectSection {
     /// An object name from the OBJ, or "*" for every object.
     pub name: String,
-    pub mode: Option<ModeName>,
+    pub mode: Option<SurfaceMode>,
     pub alpha: Option<f32>,
     #[serde(default, deserialize_with = "opt_vec3")]
     pub kd: Option<[f32; 3]>,
@@ -273,45 +268,84 @@ impl SceneFile {
         self.obj.as_ref().map(|o| scene_path.parent().unwrap_or(Path::new(".")).join(o))
     }
 
+    /// Check every value of the file, section by section; the first problem found is the error.
     fn check(&self, path: &Path) -> Result<(), SceneFileError> {
-        let bad =
-            |key: String, message: String| SceneFileError::Invalid { path: path.to_path_buf(), key, message };
-        let finite = |key: &str, v: &[f32]| -> Result<(), SceneFileError> {
-            if v.iter().all(|x| x.is_finite()) {
-                Ok(())
-            } else {
-                Err(bad(key.into(), format!("{v:?} has a non-finite number")))
+        let c = Checker { path };
+        c.camera(&self.camera)?;
+        c.render(&self.render)?;
+        for (i, l) in self.lights.iter().enumerate() {
+            c.light(i, l)?;
+        }
+        for (i, o) in self.objects.iter().enumerate() {
+            c.object(i, o)?;
+        }
+        if let Some(ao) = self.ambient_occlusion {
+            c.ambient_occlusion(ao)?;
+        }
+        c.render_names(&self.render)?;
+        if let Some(g) = &self.ground {
+            c.ground(g)?;
+        }
+        if let Some(e) = &self.environment {
+            c.environment(e)?;
+        }
+        if let Some(a) = self.crease_angle {
+            if !(0.0..=180.0).contains(&a) {
+                return Err(c.bad("crease_angle".into(), format!("{a} is not in [0, 180] degrees")));
             }
-        };
-        let nonneg = |key: &str, v: &[f32]| -> Result<(), SceneFileError> {
-            finite(key, v)?;
-            if v.iter().all(|&x| x >= 0.0) {
-                Ok(())
-            } else {
-                Err(bad(key.into(), format!("{v:?} has a negative value")))
-            }
-        };
-        let c = &self.camera;
+        }
+        Ok(())
+    }
+}
+
+/// The checks of [`SceneFile::check`], each error naming the file and the key.
+struct Checker<'a> {
+    path: &'a Path,
+}
+
+impl Checker<'_> {
+    fn bad(&self, key: String, message: String) -> SceneFileError {
+        SceneFileError::Invalid { path: self.path.to_path_buf(), key, message }
+    }
+
+    fn finite(&self, key: &str, v: &[f32]) -> Result<(), SceneFileError> {
+        if v.iter().all(|x| x.is_finite()) {
+            Ok(())
+        } else {
+            Err(self.bad(key.into(), format!("{v:?} has a non-finite number")))
+        }
+    }
+
+    fn nonneg(&self, key: &str, v: &[f32]) -> Result<(), SceneFileError> {
+        self.finite(key, v)?;
+        if v.iter().all(|&x| x >= 0.0) {
+            Ok(())
+        } else {
+            Err(self.bad(key.into(), format!("{v:?} has a negative value")))
+        }
+    }
+
+    /// `[camera]`: finite vectors, a non-zero up, and eye/look_at/up that make a view when all
+    /// are given (with automatic framing the rest is checked when the camera is made).
+    fn camera(&self, c: &CameraSection) -> Result<(), SceneFileError> {
         for (k, v) in [("camera.eye", c.eye), ("camera.look_at", c.look_at), ("camera.up", c.up)] {
             if let Some(v) = v {
-                finite(k, &v)?;
+                self.finite(k, &v)?;
             }
         }
         if let Some(up) = c.up {
             if Vec3::from(up).length_squared() == 0.0 {
-                return Err(bad("camera.up".into(), "must not be zero".into()));
+                return Err(self.bad("camera.up".into(), "must not be zero".into()));
             }
         }
-        // Settings that contradict each other within the file (with automatic framing the rest
-        // is checked when the camera is made).
         if let (Some(e), Some(l)) = (c.eye, c.look_at) {
             let dir = Vec3::from(l) - Vec3::from(e);
             if dir.try_normalize().is_none() {
-                return Err(bad("camera.look_at".into(), format!("{l:?} equals camera.eye")));
+                return Err(self.bad("camera.look_at".into(), format!("{l:?} equals camera.eye")));
             }
             if let Some(up) = c.up {
                 if dir.normalize().cross(Vec3::from(up)).try_normalize().is_none() {
-                    return Err(bad(
+                    return Err(self.bad(
                         "camera.up".into(),
                         format!("{up:?} is parallel to the view direction (look_at - eye)"),
                     ));
@@ -319,29 +353,33 @@ impl SceneFile {
             }
         }
         if let Some(o) = c.orbit {
-            finite("camera.orbit", &[o])?;
+            self.finite("camera.orbit", &[o])?;
         }
         if let Some(f) = c.fov {
             if !(f > 0.0 && f < 180.0) {
-                return Err(bad("camera.fov".into(), format!("{f} is not in (0, 180) degrees")));
+                return Err(self.bad("camera.fov".into(), format!("{f} is not in (0, 180) degrees")));
             }
         }
-        let r = &self.render;
+        Ok(())
+    }
+
+    /// `[render]`'s numbers: image size, samples, depth, colours.
+    fn render(&self, r: &RenderSection) -> Result<(), SceneFileError> {
         for (k, v) in [("render.width", r.width), ("render.height", r.height)] {
             if let Some(v) = v {
                 if v == 0 || v > 1 << 15 {
-                    return Err(bad(k.into(), format!("{v} is not in 1..=32768")));
+                    return Err(self.bad(k.into(), format!("{v} is not in 1..=32768")));
                 }
             }
         }
         if let Some(s) = r.spp {
             if s == 0 || s > 1 << 16 {
-                return Err(bad("render.spp".into(), format!("{s} is not in 1..=65536")));
+                return Err(self.bad("render.spp".into(), format!("{s} is not in 1..=65536")));
             }
         }
         if let Some(d) = r.max_depth {
             if d > MAX_DEPTH {
-                return Err(bad(
+                return Err(self.bad(
                     "render.max_depth".into(),
                     format!("{d} is more than {MAX_DEPTH} (the ray tree can double at each level)"),
                 ));
@@ -349,119 +387,132 @@ impl SceneFile {
         }
         for (k, v) in [("render.background", r.background), ("render.ambient", r.ambient)] {
             if let Some(v) = v {
-                nonneg(k, &v)?;
+                self.nonneg(k, &v)?;
             }
         }
-        for (i, l) in self.lights.iter().enumerate() {
-            let key = |f: &str| format!("light[{i}].{f}");
-            match l {
-                LightSection::Directional { direction, radiance, .. } => {
-                    finite(&key("direction"), direction)?;
-                    if Vec3::from(*direction).length_squared() == 0.0 {
-                        return Err(bad(key("direction"), "must not be zero".into()));
-                    }
-                    nonneg(&key("radiance"), radiance)?;
-                }
-                LightSection::Point { position, intensity, .. } => {
-                    finite(&key("position"), position)?;
-                    nonneg(&key("intensity"), intensity)?;
-                }
-                LightSection::Sphere { center, radius, intensity, samples } => {
-                    finite(&key("center"), center)?;
-                    if !(radius.is_finite() && *radius > 0.0) {
-                        return Err(bad(key("radius"), format!("{radius} is not a positive number")));
-                    }
-                    nonneg(&key("intensity"), intensity)?;
-                    if *samples == 0 || *samples > 4096 {
-                        return Err(bad(key("samples"), format!("{samples} is not in 1..=4096")));
-                    }
-                }
-            }
-        }
-        for (i, o) in self.objects.iter().enumerate() {
-            let key = |f: &str| format!("object[{i}].{f}");
-            if let Some(a) = o.alpha {
-                if !(0.0..=1.0).contains(&a) {
-                    return Err(bad(key("alpha"), format!("{a} is not in [0, 1]")));
-                }
-            }
-            for (k, v) in [("kd", o.kd), ("mirror", o.mirror)] {
-                if let Some(v) = v {
-                    nonneg(&key(k), &v)?;
-                }
-            }
-            if let Some(v) = o.specular {
-                nonneg(&key("specular"), &v)?;
-                if v.iter().any(|&x| x > 1.0) {
-                    return Err(bad(key("specular"), format!("{v:?} has a value above 1")));
-                }
-            }
-            if let Some(n) = o.shininess {
-                if !(n.is_finite() && n >= 0.0) {
-                    return Err(bad(key("shininess"), format!("{n} is not a number >= 0")));
-                }
-            }
-            if let Some(t) = o.transmission {
-                if !(0.0..=1.0).contains(&t) {
-                    return Err(bad(key("transmission"), format!("{t} is not in [0, 1]")));
-                }
-            }
-            if let Some(n) = o.ior {
-                if !(n.is_finite() && n >= 1.0) {
-                    return Err(bad(key("ior"), format!("{n} is not a number >= 1")));
-                }
-            }
-        }
-        if let Some(ao) = self.ambient_occlusion {
-            if ao.samples == 0 || ao.samples > 4096 {
-                return Err(bad(
-                    "ambient_occlusion.samples".into(),
-                    format!("{} is not in 1..=4096", ao.samples),
-                ));
-            }
-            if !(ao.distance.is_finite() && ao.distance > 0.0) {
-                return Err(bad(
-                    "ambient_occlusion.distance".into(),
-                    format!("{} is not a positive number", ao.distance),
-                ));
-            }
-        }
+        Ok(())
+    }
+
+    /// `[render]`'s names: shading and terminator.
+    fn render_names(&self, r: &RenderSection) -> Result<(), SceneFileError> {
         if let Some(s) = &r.shading {
             if phongrt::phong::ShadingNormal::from_name(s).is_none() {
-                return Err(bad(
-                    "render.shading".into(),
-                    format!("{s:?} is not adapted, paper or interpolated"),
-                ));
+                return Err(
+                    self.bad("render.shading".into(), format!("{s:?} is not adapted, paper or interpolated"))
+                );
             }
         }
         if let Some(s) = &r.terminator {
             if crate::render::Terminator::from_name(s).is_none() {
-                return Err(bad("render.terminator".into(), format!("{s:?} is not lift, plain or band")));
+                return Err(self.bad("render.terminator".into(), format!("{s:?} is not lift, plain or band")));
             }
         }
-        if let Some(g) = &self.ground {
-            if let Some(h) = g.height {
-                finite("ground.height", &[h])?;
+        Ok(())
+    }
+
+    /// `[[light]]` number `i`.
+    fn light(&self, i: usize, l: &LightSection) -> Result<(), SceneFileError> {
+        let key = |f: &str| format!("light[{i}].{f}");
+        match l {
+            LightSection::Directional { direction, radiance, .. } => {
+                self.finite(&key("direction"), direction)?;
+                if Vec3::from(*direction).length_squared() == 0.0 {
+                    return Err(self.bad(key("direction"), "must not be zero".into()));
+                }
+                self.nonneg(&key("radiance"), radiance)?;
             }
-            if let Some(kd) = g.kd {
-                nonneg("ground.kd", &kd)?;
+            LightSection::Point { position, intensity, .. } => {
+                self.finite(&key("position"), position)?;
+                self.nonneg(&key("intensity"), intensity)?;
             }
-        }
-        if let Some(e) = &self.environment {
-            match (e.color, &e.map) {
-                (Some(c), None) => nonneg("environment.color", &c)?,
-                (None, Some(_)) => {}
-                _ => return Err(bad("environment".into(), "give exactly one of color and map".into())),
-            }
-            if let Some(n) = e.samples {
-                if n == 0 || n > 4096 {
-                    return Err(bad("environment.samples".into(), format!("{n} is not in 1..=4096")));
+            LightSection::Sphere { center, radius, intensity, samples } => {
+                self.finite(&key("center"), center)?;
+                if !(radius.is_finite() && *radius > 0.0) {
+                    return Err(self.bad(key("radius"), format!("{radius} is not a positive number")));
+                }
+                self.nonneg(&key("intensity"), intensity)?;
+                if *samples == 0 || *samples > 4096 {
+                    return Err(self.bad(key("samples"), format!("{samples} is not in 1..=4096")));
                 }
             }
         }
-        if let Some(a) = self.crease_angle {
-            if !(0.0..=180.0).contains(&a) {
-                return Err(bad("crease_angle".into(), format!("{a} is not in [0, 180] degrees")));
+        Ok(())
+    }
+
+    /// `[[object]]` number `i`: alpha and the material overrides.
+    fn object(&self, i: usize, o: &ObjectSection) -> Result<(), SceneFileError> {
+        let key = |f: &str| format!("object[{i}].{f}");
+        if let Some(a) = o.alpha {
+            if !(0.0..=1.0).contains(&a) {
+                return Err(self.bad(key("alpha"), format!("{a} is not in [0, 1]")));
+            }
+        }
+        for (k, v) in [("kd", o.kd), ("mirror", o.mirror)] {
+            if let Some(v) = v {
+                self.nonneg(&key(k), &v)?;
+            }
+        }
+        if let Some(v) = o.specular {
+            self.nonneg(&key("specular"), &v)?;
+            if v.iter().any(|&x| x > 1.0) {
+                return Err(self.bad(key("specular"), format!("{v:?} has a value above 1")));
+            }
+        }
+        if let Some(n) = o.shininess {
+            if !(n.is_finite() && n >= 0.0) {
+                return Err(self.bad(key("shininess"), format!("{n} is not a number >= 0")));
+            }
+        }
+        if let Some(t) = o.transmission {
+            if !(0.0..=1.0).contains(&t) {
+                return Err(self.bad(key("transmission"), format!("{t} is not in [0, 1]")));
+            }
+        }
+        if let Some(n) = o.ior {
+            if !(n.is_finite() && n >= 1.0) {
+                return Err(self.bad(key("ior"), format!("{n} is not a number >= 1")));
+            }
+        }
+        Ok(())
+    }
+
+    /// `[ambient_occlusion]`.
+    fn ambient_occlusion(&self, ao: AoSection) -> Result<(), SceneFileError> {
+        if ao.samples == 0 || ao.samples > 4096 {
+            return Err(
+                self.bad("ambient_occlusion.samples".into(), format!("{} is not in 1..=4096", ao.samples))
+            );
+        }
+        if !(ao.distance.is_finite() && ao.distance > 0.0) {
+            return Err(self.bad(
+                "ambient_occlusion.distance".into(),
+                format!("{} is not a positive number", ao.distance),
+            ));
+        }
+        Ok(())
+    }
+
+    /// `[ground]`.
+    fn ground(&self, g: &GroundSection) -> Result<(), SceneFileError> {
+        if let Some(h) = g.height {
+            self.finite("ground.height", &[h])?;
+        }
+        if let Some(kd) = g.kd {
+            self.nonneg("ground.kd", &kd)?;
+        }
+        Ok(())
+    }
+
+    /// `[environment]`: exactly one of color and map, and the sample count.
+    fn environment(&self, e: &EnvironmentSection) -> Result<(), SceneFileError> {
+        match (e.color, &e.map) {
+            (Some(c), None) => self.nonneg("environment.color", &c)?,
+            (None, Some(_)) => {}
+            _ => return Err(self.bad("environment".into(), "give exactly one of color and map".into())),
+        }
+        if let Some(n) = e.samples {
+            if n == 0 || n > 4096 {
+                return Err(self.bad("environment.samples".into(), format!("{n} is not in 1..=4096")));
             }
         }
         Ok(())

@@ -9,10 +9,32 @@ use glam::{Vec2, Vec3};
 use super::texture::Texture;
 use super::{RayCounts, RenderError};
 use phongrt::embree::{Device, GeometryOptions, Hit, PhongMesh, Ray, Scene, UserGeometryOptions, PACKET8};
-use phongrt::phong::Real;
 use phongrt::phong::ShadingNormal;
+use phongrt::phong::{Real, V3};
 use phongrt::rng::SplitMix;
 use phongrt::scene as sc;
+
+/// A surface mode by name, the one set of names the command line (`--mode`, `--object
+/// NAME=MODE`) and scene files (`mode = "..."`) accept: `flat` and `phong`. Phong's shape
+/// factor comes separately; [`SurfaceMode::with_alpha`] joins them into an [`ObjectMode`].
+#[derive(Clone, Copy, Debug, PartialEq, Eq, clap::ValueEnum, serde::Deserialize)]
+#[serde(rename_all = "lowercase")]
+pub enum SurfaceMode {
+    /// Embree's native flat triangles, shaded with interpolated vertex normals.
+    Flat,
+    /// Phong tessellation ray traced directly as an Embree user geometry.
+    Phong,
+}
+
+impl SurfaceMode {
+    /// The object mode: flat, or Phong with shape factor `alpha`.
+    pub fn with_alpha(self, alpha: f32) -> ObjectMode {
+        match self {
+            SurfaceMode::Flat => ObjectMode::Flat,
+            SurfaceMode::Phong => ObjectMode::Phong { alpha },
+        }
+    }
+}
 
 /// How an object's surface is made.
 #[derive(Clone, Copy, Debug, PartialEq)]
@@ -1117,12 +1139,10 @@ impl SurfacePoint {
     }
 }
 
+/// [`phongrt::phong::orthonormal_basis`] on glam vectors: `(t, b)` with `t × b = n` for a unit `n`.
 fn orthonormal_basis(n: Vec3) -> (Vec3, Vec3) {
-    // Duff et al. 2017, "Building an Orthonormal Basis, Revisited".
-    let sign = 1.0f32.copysign(n.z);
-    let a = -1.0 / (sign + n.z);
-    let b = n.x * n.y * a;
-    (Vec3::new(1.0 + sign * n.x * n.x * a, sign * b, -sign * n.x), Vec3::new(b, sign + n.y * n.y * a, -n.y))
+    let (t, b) = phongrt::phong::orthonormal_basis(V3::from(n));
+    (t.into(), b.into())
 }
 
 impl Object {
