@@ -880,17 +880,31 @@ pub fn mem_total() -> Option<u64> {
 }
 
 /// Register the embedded DejaVu Sans as plotters' "sans-serif" (idempotent).
-fn register_plot_font() -> anyhow::Result<()> {
+/// Why a bench plot could not be drawn.
+#[derive(Debug, thiserror::Error)]
+pub enum PlotError {
+    /// The font compiled into the binary was refused by the plotting library.
+    #[error("the embedded DejaVu Sans does not parse")]
+    Font,
+    /// The plotting library failed to draw.
+    #[error("cannot draw the plot: {0}")]
+    Draw(String),
+    /// The drawn buffer does not have the plot's size.
+    #[error("plot buffer size mismatch")]
+    Buffer,
+}
+
+fn register_plot_font() -> Result<(), PlotError> {
     plotters::style::register_font(
         "sans-serif",
         plotters::style::FontStyle::Normal,
         crate::render::text::DEJAVU_SANS,
     )
-    .map_err(|_| anyhow::anyhow!("the embedded DejaVu Sans does not parse"))
+    .map_err(|_| PlotError::Font)
 }
 
-fn plot_error<E: std::fmt::Debug>(e: E) -> anyhow::Error {
-    anyhow::anyhow!("cannot draw the plot: {e:?}")
+fn plot_error<E: std::fmt::Debug>(e: E) -> PlotError {
+    PlotError::Draw(format!("{e:?}"))
 }
 
 /// Decades `[10^floor(lo), 10^ceil(hi)]` around the data, at least one decade wide.
@@ -919,14 +933,14 @@ fn series_colour(i: usize) -> plotters::style::RGBColor {
     plotters::style::RGBColor(r, g, b)
 }
 
-fn rgb_image(w: u32, h: u32, buf: Vec<u8>) -> anyhow::Result<image::RgbImage> {
-    image::RgbImage::from_raw(w, h, buf).ok_or_else(|| anyhow::anyhow!("plot buffer size mismatch"))
+fn rgb_image(w: u32, h: u32, buf: Vec<u8>) -> Result<image::RgbImage, PlotError> {
+    image::RgbImage::from_raw(w, h, buf).ok_or(PlotError::Buffer)
 }
 
 /// Error against time, log–log, one panel per scene: each method a point (legend on the right)
 /// at (ns per primary ray on one thread, mean relative t error; errors below 1e-9 drawn at 1e-9).
 /// Drawn with plotters into an 8-bit sRGB buffer.
-pub fn plot(rows: &[BenchRow]) -> anyhow::Result<image::RgbImage> {
+pub fn plot(rows: &[BenchRow]) -> Result<image::RgbImage, PlotError> {
     use plotters::prelude::*;
     // Fast and exact (the ideal corner) is where no method sits.
     const LEGEND: SeriesLabelPosition = SeriesLabelPosition::LowerLeft;
@@ -994,7 +1008,7 @@ pub fn plot(rows: &[BenchRow]) -> anyhow::Result<image::RgbImage> {
 
 /// Build time and memory against scene size, log–log: two panels, one line per method through
 /// its scenes in order of triangle count. Drawn with plotters into an 8-bit sRGB buffer.
-pub fn plot_scaling(rows: &[BenchRow]) -> anyhow::Result<image::RgbImage> {
+pub fn plot_scaling(rows: &[BenchRow]) -> Result<image::RgbImage, PlotError> {
     use plotters::prelude::*;
     // Few triangles and much time or memory: where no line goes.
     const LEGEND: SeriesLabelPosition = SeriesLabelPosition::UpperLeft;
