@@ -1,13 +1,19 @@
 //! The equal-accuracy summaries of `phongrt bench`: which pre-tessellation level matches direct
 //! Phong, and the extrapolation beyond the levels built.
 
-use phongrt_cli::bench::{equal_depth_summary, equal_silhouette_summary, BenchRow};
+use phongrt_cli::bench::{equal_depth_summary, equal_silhouette_summary, BenchMethod, BenchRow};
 
-fn row(method: &str, triangles: usize, bytes: usize, err_t_mean: f64, silhouette_px: usize) -> BenchRow {
+fn row(
+    method: BenchMethod,
+    triangles: usize,
+    bytes: usize,
+    err_t_mean: f64,
+    silhouette_px: usize,
+) -> BenchRow {
     BenchRow {
         scene: "s".into(),
         triangles,
-        method: method.into(),
+        method,
         build_ms: 1.0,
         embree_bytes: 0,
         own_bytes: bytes,
@@ -33,9 +39,15 @@ fn cells(table: &str) -> Vec<String> {
 #[test]
 fn a_built_level_that_matches_is_reported_as_measured() {
     // 1000 triangles; 100 bytes per triangle at every level; error 1e-3 / level².
-    let mut rows = vec![row("direct-f32", 1000, 200_000, 2e-5, 0)];
+    let mut rows = vec![row(BenchMethod::DirectF32, 1000, 200_000, 2e-5, 0)];
     for l in [1usize, 2, 4, 8] {
-        rows.push(row(&format!("pretess-{l}"), 1000, 100 * 1000 * l * l, 1e-3 / (l * l) as f64, 8 / l));
+        rows.push(row(
+            BenchMethod::Pretessellated(l as u32),
+            1000,
+            100 * 1000 * l * l,
+            1e-3 / (l * l) as f64,
+            8 / l,
+        ));
     }
     // Depth: 1e-3/64 = 1.6e-5 <= 2e-5 at level 8 (the first); 6.4 MB, 32x direct's 0.2 MB.
     let d = cells(&equal_depth_summary(&rows, Some(1 << 40)));
@@ -52,9 +64,15 @@ fn a_built_level_that_matches_is_reported_as_measured() {
 fn beyond_the_built_levels_the_level_is_extrapolated_and_may_not_fit() {
     // Error 1e-3 / level², direct 1e-8: level sqrt(1e5) = 316.2 -> 317, at 100 bytes per
     // triangle: 1000 * 317² * 100 B = 10.05 GB.
-    let mut rows = vec![row("direct-f32", 1000, 200_000, 1e-8, 0)];
+    let mut rows = vec![row(BenchMethod::DirectF32, 1000, 200_000, 1e-8, 0)];
     for l in [1usize, 2, 4] {
-        rows.push(row(&format!("pretess-{l}"), 1000, 100 * 1000 * l * l, 1e-3 / (l * l) as f64, 0));
+        rows.push(row(
+            BenchMethod::Pretessellated(l as u32),
+            1000,
+            100 * 1000 * l * l,
+            1e-3 / (l * l) as f64,
+            0,
+        ));
     }
     let d = cells(&equal_depth_summary(&rows, Some(8_000_000_000)));
     assert_eq!(d[3], "level 317 (extrapolated, not built)", "{d:?}");
@@ -117,10 +135,10 @@ fn pretessellation_is_watertight_and_on_the_surface() {
 fn an_error_that_stops_falling_is_not_extrapolated() {
     // Error 1e-3 / level² down to a floor of 1e-7 (reached at level 100), direct 3e-8: levels
     // 64 -> 128 -> 192 fall 2.4x and then not at all, far below the 4x and 2.25x of 1/level².
-    let mut rows = vec![row("direct-f32", 1000, 200_000, 3e-8, 0)];
+    let mut rows = vec![row(BenchMethod::DirectF32, 1000, 200_000, 3e-8, 0)];
     for l in [16usize, 32, 64, 128, 192] {
         rows.push(row(
-            &format!("pretess-{l}"),
+            BenchMethod::Pretessellated(l as u32),
             1000,
             100 * 1000 * l * l,
             (1e-3 / (l * l) as f64).max(1e-7),

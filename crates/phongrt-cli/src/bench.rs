@@ -15,7 +15,7 @@ use phongrt::phong::{control_points, intersect, Method, Patch, V3};
 use phongrt::scene::Mesh;
 
 /// The ways of rendering a smooth surface from a low-poly mesh.
-#[derive(Clone, Copy, Debug, PartialEq)]
+#[derive(Clone, Copy, Debug, PartialEq, Eq, Hash)]
 pub enum BenchMethod {
     /// Embree's native triangles of the input mesh.
     Flat,
@@ -37,7 +37,14 @@ pub enum BenchMethod {
     Subdivision,
 }
 
+impl std::fmt::Display for BenchMethod {
+    fn fmt(&self, f: &mut std::fmt::Formatter<'_>) -> std::fmt::Result {
+        f.write_str(&self.name())
+    }
+}
+
 impl BenchMethod {
+    /// The method's name in the tables, CSV and plots (`flat`, `pretess-4`, `direct-f32`, ...).
     pub fn name(&self) -> String {
         match self {
             BenchMethod::Flat => "flat".into(),
@@ -50,6 +57,18 @@ impl BenchMethod {
             BenchMethod::UserFloor => "user-floor".into(),
             BenchMethod::Subdivision => "subdiv-cc".into(),
         }
+    }
+
+    /// Whether the method ray traces the Phong surface directly (a curved primitive).
+    pub fn is_direct(&self) -> bool {
+        matches!(
+            self,
+            BenchMethod::DirectF32
+                | BenchMethod::DirectF32Clustered
+                | BenchMethod::AnalyticF32
+                | BenchMethod::DirectF64
+                | BenchMethod::NewtonF32
+        )
     }
 
     /// Every method, pre-tessellation at levels 1..64.
@@ -231,7 +250,7 @@ pub const SHADED_SPP: u32 = 4;
 pub struct BenchRow {
     pub scene: String,
     pub triangles: usize,
-    pub method: String,
+    pub method: BenchMethod,
     pub build_ms: f64,
     pub embree_bytes: i64,
     pub own_bytes: usize,
@@ -615,7 +634,7 @@ pub fn bench_scene(
         rows.push(BenchRow {
             scene: name.to_string(),
             triangles: m.indices.len(),
-            method: method.name(),
+            method,
             build_ms,
             embree_bytes,
             own_bytes: own,
@@ -672,7 +691,7 @@ pub fn to_csv(rows: &[BenchRow]) -> String {
 }
 
 /// The row of `method` on `scene`.
-fn find<'a>(rows: &'a [BenchRow], scene: &str, method: &str) -> Option<&'a BenchRow> {
+fn find<'a>(rows: &'a [BenchRow], scene: &str, method: BenchMethod) -> Option<&'a BenchRow> {
     rows.iter().find(|r| r.scene == scene && r.method == method)
 }
 
@@ -680,8 +699,9 @@ fn find<'a>(rows: &'a [BenchRow], scene: &str, method: &str) -> Option<&'a Bench
 pub fn to_markdown(rows: &[BenchRow]) -> String {
     let mut s = String::from("| scene | tris | method | build ms | Embree MB | own MB | Mrays/s 1 thread | Mrays/s 1 thread, packets | Mrays/s all | first image ms | rel t err mean | p50 | max | silhouette px | shaded ms | shaded × flat | shaded ms (packets) | shaded (packets) × flat (packets) |\n|---|---|---|---|---|---|---|---|---|---|---|---|---|---|---|---|---|---|\n");
     for r in rows {
-        let ratio = find(rows, &r.scene, "flat").map_or(f64::NAN, |f| r.shaded_ms / f.shaded_ms.max(1e-9));
-        let ratio_packets = find(rows, &r.scene, "flat")
+        let ratio =
+            find(rows, &r.scene, BenchMethod::Flat).map_or(f64::NAN, |f| r.shaded_ms / f.shaded_ms.max(1e-9));
+        let ratio_packets = find(rows, &r.scene, BenchMethod::Flat)
             .map_or(f64::NAN, |f| r.shaded_ms_packets / f.shaded_ms_packets.max(1e-9));
         s += &format!(
             "| {} | {} | {} | {:.2} | {:.2} | {:.2} | {:.2} | {:.2} | {:.2} | {:.1} | {:.1e} | {:.1e} | {:.1e} | {} | {:.1} | {:.2} | {:.1} | {:.2} |\n",
@@ -751,11 +771,14 @@ fn direct_and_levels(rows: &[BenchRow]) -> Vec<SceneLevels<'_>> {
     scenes
         .into_iter()
         .filter_map(|sc| {
-            let direct = find(rows, sc, "direct-f32")?;
+            let direct = find(rows, sc, BenchMethod::DirectF32)?;
             let mut levels: Vec<(u32, &BenchRow)> = rows
                 .iter()
                 .filter(|r| r.scene == sc)
-                .filter_map(|r| r.method.strip_prefix("pretess-")?.parse().ok().map(|l| (l, r)))
+                .filter_map(|r| match r.method {
+                    BenchMethod::Pretessellated(l) => Some((l, r)),
+                    _ => None,
+                })
                 .collect();
             levels.sort_by_key(|&(l, _)| l);
             Some(SceneLevels { scene: sc, direct, levels })
@@ -985,11 +1008,11 @@ pub fn plot(rows: &[BenchRow]) -> Result<image::RgbImage, PlotError> {
                 .map_err(plot_error)?;
             for (i, (row, p)) in rs.iter().zip(&pts).enumerate() {
                 let c = series_colour(i);
-                let marker = if row.method.starts_with("direct") { 6 } else { 4 };
+                let marker = if row.method.is_direct() { 6 } else { 4 };
                 chart
                     .draw_series(std::iter::once(Circle::new(*p, marker, c.filled())))
                     .map_err(plot_error)?
-                    .label(row.method.clone())
+                    .label(row.method.name())
                     .legend(move |(x, y)| Circle::new((x + 6, y), 4, c.filled()));
             }
             chart
@@ -1015,10 +1038,10 @@ pub fn plot_scaling(rows: &[BenchRow]) -> Result<image::RgbImage, PlotError> {
     register_plot_font()?;
     let (pw, ph) = (960u32, 420u32);
     let mut buf = vec![255u8; pw as usize * ph as usize * 2 * 3];
-    let mut methods: Vec<&str> = Vec::new();
+    let mut methods: Vec<BenchMethod> = Vec::new();
     for r in rows {
-        if !methods.contains(&r.method.as_str()) {
-            methods.push(&r.method);
+        if !methods.contains(&r.method) {
+            methods.push(r.method);
         }
     }
     type Metric = fn(&BenchRow) -> f64;
