@@ -39,9 +39,7 @@ pub(super) fn certified_newton<T: Real>(
     tmax: T,
 ) -> Option<Option<PatchHit<T>>> {
     // Compute the certificate, then the root in the plane, then its point in space.
-    if !one_to_one_on_region(pr) {
-        return None;
-    }
+    let j0 = one_to_one_on_region(pr)?;
     let (u, v) = flat_start(pr)?;
     let (u, v, converged) = newton_plane(pr, u, v)?;
     // The ray parameter of the surface point: its projection on the ray.
@@ -52,17 +50,20 @@ pub(super) fn certified_newton<T: Real>(
     if converged && inside(u, v) {
         (u, v, t) = newton_step(p, o, d, u, v, t)?;
     }
-    // The root must be converged, on the ray to rounding, and inside R (with room for its error).
+    // The root must be converged and on the ray to rounding. Inside R (with room for its
+    // error) it is R's only root. Outside R it is still the only one in R when the certificate
+    // also holds at the root: then the projection is one-to-one on the hull of R and the root
+    // (the certificate's matrices form a convex cone and J is linear), a proven miss.
     let (lo, _) = region::<T>();
     let slack = T::from_f64(0.005);
     let in_r = u >= lo + slack && v >= lo + slack && u + v <= T::ONE - lo - slack;
-    if !converged || !on_ray(p, o, d, u, v, t) || !in_r {
+    if !converged || !on_ray(p, o, d, u, v, t) || !(in_r || certificate_holds(&j0, jacobian(pr, u, v))) {
         return None;
     }
     decide(u, v, t, tmin, tmax)
 }
 
-/// The answer for a proven root `(u, v, t)` in `R`: a hit inside the domain and the interval,
+/// The answer for a proven root `(u, v, t)`, R's only one: a hit inside the domain and the interval,
 /// a proven miss outside, `None` (not proven) within the band where the analytic method would
 /// decide again in f64.
 fn decide<T: Real>(u: T, v: T, t: T, tmin: T, tmax: T) -> Option<Option<PatchHit<T>>> {
@@ -92,30 +93,38 @@ fn jacobian<T: Real>(pr: &Projected<T>, u: T, v: T) -> [T; 4] {
     ]
 }
 
-/// Whether the symmetric part of `J0⁻¹ J` is clearly positive definite at the corners of `R`
-/// (`J0` the Jacobian at the centroid): then the projection is one-to-one on `R`.
-fn one_to_one_on_region<T: Real>(pr: &Projected<T>) -> bool {
+/// `J0` (the Jacobian at the centroid) when the symmetric part of `J0⁻¹ J` is clearly positive
+/// definite at the corners of `R`: then the projection is one-to-one on `R`. `None` when it is not.
+fn one_to_one_on_region<T: Real>(pr: &Projected<T>) -> Option<[T; 4]> {
     let third = T::from_f64(1.0 / 3.0);
     let j0 = jacobian(pr, third, third);
+    let (lo, hi) = region::<T>();
+    [(lo, lo), (hi, lo), (lo, hi)]
+        .into_iter()
+        .all(|(u, v)| certificate_holds(&j0, jacobian(pr, u, v)))
+        .then_some(j0)
+}
+
+/// Whether the symmetric part of `J0⁻¹ J` is clearly positive definite (`false` for a `J0`
+/// within rounding of singular: the ray grazes the patch). The matrices that pass form a convex
+/// cone, and `J` is linear in `(u, v)`: passing at the corners of a polygon is passing on all of it.
+#[inline(always)]
+fn certificate_holds<T: Real>(j0: &[T; 4], j: [T; 4]) -> bool {
     let det0 = j0[0] * j0[3] - j0[1] * j0[2];
     let j0n = j0.iter().fold(T::ZERO, |m, x| m.max(x.abs()));
-    // A J0 within rounding of singular (the ray grazes the patch) proves nothing.
+    // A J0 within rounding of singular proves nothing.
     if !(det0.abs() > T::gamma(64).sqrt() * j0n * j0n) {
         return false;
     }
     let inv = T::ONE / det0;
-    let (lo, hi) = region::<T>();
-    [(lo, lo), (hi, lo), (lo, hi)].into_iter().all(|(u, v)| {
-        let j = jacobian(pr, u, v);
-        // M = J0⁻¹ J; its symmetric part must be clearly positive definite (a margin of 1% of
-        // its diagonal product keeps the answer out of the rounding of J0⁻¹ and of J).
-        let m00 = (j0[3] * j[0] - j0[1] * j[2]) * inv;
-        let m01 = (j0[3] * j[1] - j0[1] * j[3]) * inv;
-        let m10 = (j0[0] * j[2] - j0[2] * j[0]) * inv;
-        let m11 = (j0[0] * j[3] - j0[2] * j[1]) * inv;
-        let h = (m01 + m10) * T::from_f64(0.5);
-        m00 > T::ZERO && m11 > T::ZERO && m00 * m11 - h * h > T::from_f64(0.01) * m00 * m11
-    })
+    // M = J0⁻¹ J; its symmetric part must be clearly positive definite (a margin of 1% of
+    // its diagonal product keeps the answer out of the rounding of J0⁻¹ and of J).
+    let m00 = (j0[3] * j[0] - j0[1] * j[2]) * inv;
+    let m01 = (j0[3] * j[1] - j0[1] * j[3]) * inv;
+    let m10 = (j0[0] * j[2] - j0[2] * j[0]) * inv;
+    let m11 = (j0[0] * j[3] - j0[2] * j[1]) * inv;
+    let h = (m01 + m10) * T::from_f64(0.5);
+    m00 > T::ZERO && m11 > T::ZERO && m00 * m11 - h * h > T::from_f64(0.01) * m00 * m11
 }
 
 /// The start of Newton's iteration: the ray's hit with the flat triangle (`F` and `G` with their
@@ -156,4 +165,58 @@ fn newton_plane<T: Real>(pr: &Projected<T>, mut u: T, mut v: T) -> Option<(T, T,
         }
     }
     Some((u, v, false))
+}
+
+#[cfg(test)]
+mod tests {
+    use super::super::{intersect, intersect_traced, Method, TestOutcome};
+    use crate::phong::accuracy::{generate, Category, SplitMix};
+    use crate::phong::patch::Patch;
+    use crate::phong::real::V3;
+
+    /// A ray aimed at the surface's continuation beyond `R` (at `(u, v) = (-0.1, 0.55)`, left of
+    /// the edge `u = 0`) from above the middle of the patch: Newton's iteration converges to
+    /// that root, outside `R`, and where the certificate also holds there the miss is proven
+    /// without the analytic method. The answers stay the analytic method's.
+    #[test]
+    fn root_beyond_region_is_a_certified_miss() {
+        let mut rng = SplitMix(14);
+        let (mut tested, mut certified, mut analytic) = (0, 0, 0);
+        for _ in 0..2000 {
+            let c = generate(&mut rng, Category::RandomCurved);
+            let exact: Patch<f64> = Patch::new(c.p, c.n, c.alpha);
+            let target = exact.eval(-0.1, 0.55);
+            // From above the middle of the patch, down and out across the edge.
+            let fnorm = V3::from((c.p[1] - c.p[0]).cross(c.p[2] - c.p[0]).normalize());
+            let up = if fnorm.dot(V3::from(c.n[0] + c.n[1] + c.n[2])) > 0.0 { fnorm } else { -fnorm };
+            let org = exact.eval(1.0 / 3.0, 1.0 / 3.0) + up * (0.3 * c.size);
+            let dir = target - org;
+            let p: Patch<f32> = Patch::new(c.p, c.n, c.alpha);
+            let (o, d) = (org.cast::<f32>(), dir.cast::<f32>());
+            let (hit, outcome) = intersect_traced(&p, o, d, 0.0, f32::INFINITY, Method::Certified);
+            let reference = intersect(&p, o, d, 0.0, f32::INFINITY, Method::AnalyticPolished);
+            assert_eq!(
+                hit.is_some(),
+                reference.is_some(),
+                "case {c:?}: certified {hit:?}, analytic {reference:?}"
+            );
+            match outcome {
+                TestOutcome::HullReject => {}
+                TestOutcome::CertifiedMiss => {
+                    tested += 1;
+                    certified += 1
+                }
+                TestOutcome::AnalyticMiss | TestOutcome::AnalyticHit => {
+                    tested += 1;
+                    analytic += 1
+                }
+                _ => tested += 1,
+            }
+        }
+        assert!(tested > 500, "only {tested} rays passed the hull");
+        assert!(
+            certified * 2 > tested,
+            "{certified} certified misses, {analytic} analytic answers of {tested} rays past the hull"
+        );
+    }
 }
