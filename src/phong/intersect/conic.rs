@@ -158,17 +158,10 @@ pub(super) fn line_conic<T: Real>(l: [T; 3], k: &Conic<T>) -> ([(T, T); 2], usiz
     (out, n, near_tangent)
 }
 
-/// A unit vector pair `(n1, n2)` orthogonal to `d` and to each other (Duff et al. 2017).
+/// A unit vector pair `(n1, n2)` orthogonal to `d` and to each other: the ray's two planes.
 #[inline(always)]
 pub(super) fn planes_for<T: Real>(d: V3<T>) -> Option<(V3<T>, V3<T>)> {
-    let d = d.normalized()?;
-    let sign = T::ONE.copysign(d.z);
-    let a = -T::ONE / (sign + d.z);
-    let b = d.x * d.y * a;
-    Some((
-        V3::new(T::ONE + sign * d.x * d.x * a, sign * b, -sign * d.x),
-        V3::new(b, sign + d.y * d.y * a, -d.y),
-    ))
+    Some(crate::phong::orthonormal_basis(d.normalized()?))
 }
 
 /// The patch seen along the ray: `F(u,v) = n1 · (P(u,v) - o)`, `G(u,v) = n2 · (P(u,v) - o)`,
