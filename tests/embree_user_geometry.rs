@@ -189,6 +189,18 @@ unsafe extern "C" fn reject_even(args: *const sys::RTCFilterFunctionNArguments) 
     }
 }
 
+/// Give geometry `id` of the uncommitted `scene` the filter `reject_even`, for both queries.
+fn filter_out_even(scene: &Scene, id: u32) {
+    // SAFETY (test): the geometry is live in an uncommitted scene; setting filters before commit
+    // is allowed, and `reject_even` touches only the lanes Embree passes it.
+    unsafe {
+        let g = sys::rtcGetGeometry(scene.raw(), id);
+        sys::rtcSetGeometryIntersectFilterFunction(g, Some(reject_even));
+        sys::rtcSetGeometryOccludedFilterFunction(g, Some(reject_even));
+        sys::rtcCommitGeometry(g);
+    }
+}
+
 #[test]
 fn filters_see_and_reject_candidates_as_on_triangles() {
     let device = Device::new().unwrap();
@@ -207,13 +219,7 @@ fn filters_see_and_reject_candidates_as_on_triangles() {
         } else {
             scene.attach_triangles(&p, &i, GeometryOptions::default()).unwrap()
         };
-        // SAFETY (test): the geometry is live in an uncommitted scene; setting filters before commit is allowed.
-        unsafe {
-            let g = sys::rtcGetGeometry(scene.raw(), id);
-            sys::rtcSetGeometryIntersectFilterFunction(g, Some(reject_even));
-            sys::rtcSetGeometryOccludedFilterFunction(g, Some(reject_even));
-            sys::rtcCommitGeometry(g);
-        }
+        filter_out_even(&scene, id);
         scene.commit().unwrap();
         let r: Vec<_> = rays(5000)
             .into_iter()
@@ -450,13 +456,7 @@ fn phong_sphere(device: &Device, k: usize, filtered: bool) -> Scene {
     let mut scene = Scene::new(device).unwrap();
     let id = scene.attach_phong(mesh, UserGeometryOptions::default()).unwrap();
     if filtered {
-        // SAFETY (test): the geometry is live in an uncommitted scene; setting filters before commit is allowed.
-        unsafe {
-            let g = sys::rtcGetGeometry(scene.raw(), id);
-            sys::rtcSetGeometryIntersectFilterFunction(g, Some(reject_even));
-            sys::rtcSetGeometryOccludedFilterFunction(g, Some(reject_even));
-            sys::rtcCommitGeometry(g);
-        }
+        filter_out_even(&scene, id);
     }
     scene.commit().unwrap();
     scene

@@ -16,5 +16,6 @@ pub use user_geometry::{PrimHit, UserGeometryOptions, UserPrimitives, UserTriang
 pub mod capi;
 pub mod phong_geometry;
 pub use phong_geometry::{
-    attach_phong_raw, PatchTest, PhongMesh, PhongMeshBuilder, PhongMeshError, RawPhongGeometry,
+    attach_phong_raw, patch_prim_hit, PatchTest, PhongMesh, PhongMeshBuilder, PhongMeshError,
+    RawPhongGeometry,
 };

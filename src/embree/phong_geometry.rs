@@ -12,7 +12,7 @@ use super::scene::Scene;
 use super::user_geometry::{new_user_geometry, PrimHit, UserData, UserGeometryOptions, UserPrimitives};
 use crate::phong::cluster::{group_by_position, hull_entries, Cluster, ClusterHull, CLUSTER_SIZE};
 use crate::phong::{
-    intersect_in_hull_traced, intersect_traced, Method, Patch, ShadingNormal, TestOutcome, V3,
+    intersect_in_hull_traced, intersect_traced, Method, Patch, PatchHit, ShadingNormal, TestOutcome, V3,
 };
 use crate::sys;
 
@@ -433,12 +433,8 @@ impl UserPrimitives for PhongMesh {
         if !self.clusters.is_empty() {
             return Some(self.clusters.get(item as usize)?.bounds());
         }
-        let p = self.patches.get(item as usize)?;
-        if p.degenerate() {
-            return None; // excluded from the BVH (and counted in `degenerate`)
-        }
-        let (lo, hi) = p.bounds();
-        Some((lo.into(), hi.into()))
+        // A degenerate patch is excluded from the BVH (and counted in `degenerate`).
+        self.patches.get(item as usize)?.bounds_f32()
     }
 
     #[inline]
@@ -524,7 +520,7 @@ impl PhongMesh {
 
     /// The hit Embree is given for `h` on patch `p` (triangle `prim`).
     #[inline(always)]
-    fn prim_hit(&self, p: &Patch<f32>, prim: u32, h: crate::phong::PatchHit<f32>) -> PrimHit {
+    fn prim_hit(&self, p: &Patch<f32>, prim: u32, h: PatchHit<f32>) -> PrimHit {
         let (pu, pv) = p.partials_local(h.u, h.v);
         PrimHit { t: h.t, u: h.u, v: h.v, ng: Vec3::from(pu.cross(pv)), prim }
     }
@@ -611,6 +607,26 @@ pub unsafe fn attach_phong_raw(
         }
         Ok(RawPhongGeometry { data, geom_id })
     }
+}
+
+/// The hit Embree is given for `h`, found in precision `T` on patch `p` (triangle `prim`), rounded
+/// to f32: `None` when the rounded `t` leaves the open interval `(tnear, tfar)` (for user
+/// geometry of patches solved in f64, as the bench's reference).
+pub fn patch_prim_hit<T: crate::phong::Real>(
+    p: &Patch<T>,
+    prim: u32,
+    h: PatchHit<T>,
+    tnear: f32,
+    tfar: f32,
+) -> Option<PrimHit> {
+    let t = h.t.to_f64() as f32;
+    if !(t > tnear && t < tfar) {
+        return None;
+    }
+    let (pu, pv) = p.partials_local(h.u, h.v);
+    let ng = pu.cross(pv).to_f64();
+    let ng = Vec3::new(ng.x as f32, ng.y as f32, ng.z as f32);
+    Some(PrimHit { t, u: h.u.to_f64() as f32, v: h.v.to_f64() as f32, ng, prim })
 }
 
 /// Evaluate the Phong surface of triangle `(p, n)` at `(u, v)` in f64 (a convenience for users).

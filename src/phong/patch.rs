@@ -470,6 +470,36 @@ impl<T: Real> Patch<T> {
         (lo - err, hi + err)
     }
 
+    /// [`Patch::bounds`] rounded outwards to f32 (what Embree's bounds callback takes; exact for
+    /// `Patch<f32>`), or `None` for a degenerate patch (never hit: left out of the BVH).
+    pub fn bounds_f32(&self) -> Option<(glam::Vec3, glam::Vec3)> {
+        if self.degenerate {
+            return None;
+        }
+        let (lo, hi) = self.bounds();
+        let (lo, hi) = (lo.to_f64(), hi.to_f64());
+        let down = |x: f64| {
+            let f = x as f32;
+            if f as f64 > x {
+                f.next_down()
+            } else {
+                f
+            }
+        };
+        let up = |x: f64| {
+            let f = x as f32;
+            if (f as f64) < x {
+                f.next_up()
+            } else {
+                f
+            }
+        };
+        Some((
+            glam::Vec3::new(down(lo.x), down(lo.y), down(lo.z)),
+            glam::Vec3::new(up(hi.x), up(hi.y), up(hi.z)),
+        ))
+    }
+
     /// World-space point with a conservative bound on its absolute rounding error.
     pub fn eval_with_error(&self, u: T, v: T) -> (V3<T>, V3<T>) {
         let p = self.eval(u, v);

@@ -8,7 +8,7 @@ use rayon::prelude::*;
 
 use crate::render::Camera;
 use phongrt::embree::{
-    Device, EmbreeError, GeometryOptions, PhongMesh, PhongMeshError, PrimHit, Ray, Scene,
+    patch_prim_hit, Device, EmbreeError, GeometryOptions, PhongMesh, PhongMeshError, PrimHit, Ray, Scene,
     UserGeometryOptions, UserPrimitives, UserTriangles, PACKET8,
 };
 use phongrt::phong::{control_points, intersect, Method, Patch, V3};
@@ -103,48 +103,13 @@ impl UserPrimitives for PhongMesh64 {
         self.patches.len() as u32
     }
     fn bounds(&self, prim: u32) -> Option<(Vec3, Vec3)> {
-        let p = self.patches.get(prim as usize)?;
-        if p.degenerate() {
-            return None;
-        }
-        let (lo, hi) = p.bounds();
-        // Round outwards to f32.
-        let down = |x: f64| {
-            let f = x as f32;
-            if f as f64 > x {
-                f.next_down()
-            } else {
-                f
-            }
-        };
-        let up = |x: f64| {
-            let f = x as f32;
-            if (f as f64) < x {
-                f.next_up()
-            } else {
-                f
-            }
-        };
-        Some((Vec3::new(down(lo.x), down(lo.y), down(lo.z)), Vec3::new(up(hi.x), up(hi.y), up(hi.z))))
+        self.patches.get(prim as usize)?.bounds_f32()
     }
     fn intersect(&self, prim: u32, org: Vec3, dir: Vec3, tnear: f32, tfar: f32) -> Option<PrimHit> {
         let p = self.patches.get(prim as usize)?;
-        let o = V3::new(org.x as f64, org.y as f64, org.z as f64);
-        let d = V3::new(dir.x as f64, dir.y as f64, dir.z as f64);
+        let (o, d) = (V3::from(org.as_dvec3()), V3::from(dir.as_dvec3()));
         let h = intersect(p, o, d, tnear as f64, tfar as f64, Method::AnalyticPolished)?;
-        let t = h.t as f32;
-        if !(t > tnear && t < tfar) {
-            return None;
-        }
-        let (pu, pv) = p.partials_local(h.u, h.v);
-        let ng = pu.cross(pv);
-        Some(PrimHit {
-            t,
-            u: h.u as f32,
-            v: h.v as f32,
-            ng: Vec3::new(ng.x as f32, ng.y as f32, ng.z as f32),
-            prim,
-        })
+        patch_prim_hit(p, prim, h, tnear, tfar)
     }
 }
 
