@@ -998,8 +998,6 @@ pub fn plot(rows: &[BenchRow]) -> Result<image::RgbImage, PlotError> {
 /// its scenes in order of triangle count. Drawn with plotters into an 8-bit sRGB buffer.
 pub fn plot_scaling(rows: &[BenchRow]) -> Result<image::RgbImage, PlotError> {
     use plotters::prelude::*;
-    // Few triangles and much time or memory: where no line goes.
-    const LEGEND: SeriesLabelPosition = SeriesLabelPosition::UpperLeft;
     register_plot_font()?;
     let (pw, ph) = (960u32, 420u32);
     let mut buf = vec![255u8; pw as usize * ph as usize * 2 * 3];
@@ -1009,69 +1007,85 @@ pub fn plot_scaling(rows: &[BenchRow]) -> Result<image::RgbImage, PlotError> {
             methods.push(r.method);
         }
     }
-    type Metric = fn(&BenchRow) -> f64;
-    let panels: [(&str, &str, Metric); 2] = [
+    let panels: [(&str, &str, ScalingMetric); 2] = [
         ("BVH build time vs triangles", "build ms", |r| r.build_ms),
         ("memory (Embree + own) vs triangles", "MB", |r| bytes(r) / 1e6),
     ];
     {
         let root = BitMapBackend::with_buffer(&mut buf, (pw, ph * 2)).into_drawing_area();
         root.fill(&WHITE).map_err(plot_error)?;
-        for (area, (title, ydesc, metric)) in root.split_evenly((2, 1)).iter().zip(panels.iter()) {
-            let pts: Vec<(f64, f64)> =
-                rows.iter().map(|r| ((r.triangles as f64).max(1.0), metric(r).max(1e-3))).collect();
-            if pts.is_empty() {
-                continue;
-            }
-            let xr = decades(
-                pts.iter().map(|p| p.0).fold(f64::MAX, f64::min),
-                pts.iter().map(|p| p.0).fold(f64::MIN, f64::max),
-            );
-            let yr = decades(
-                pts.iter().map(|p| p.1).fold(f64::MAX, f64::min),
-                pts.iter().map(|p| p.1).fold(f64::MIN, f64::max),
-            );
-            let mut chart = ChartBuilder::on(area)
-                .caption(*title, ("sans-serif", 20))
-                .margin(12)
-                .margin_right(24)
-                .x_label_area_size(42)
-                .y_label_area_size(64)
-                .build_cartesian_2d(xr.log_scale(), yr.log_scale())
-                .map_err(plot_error)?;
-            chart
-                .configure_mesh()
-                .x_desc("triangles")
-                .y_desc(*ydesc)
-                .x_label_formatter(&|v| format!("{v:.0e}"))
-                .y_label_formatter(&|v| format!("{v:.0e}"))
-                .label_style(("sans-serif", 13))
-                .draw()
-                .map_err(plot_error)?;
-            for (mi, m) in methods.iter().enumerate() {
-                let c = series_colour(mi);
-                let mut series: Vec<(f64, f64)> =
-                    rows.iter().zip(&pts).filter(|(r, _)| r.method == *m).map(|(_, p)| *p).collect();
-                series.sort_by(|a, b| a.0.total_cmp(&b.0));
-                chart
-                    .draw_series(LineSeries::new(series.clone(), c.stroke_width(2)))
-                    .map_err(plot_error)?
-                    .label(m.to_string())
-                    .legend(move |(x, y)| PathElement::new(vec![(x, y), (x + 16, y)], c.stroke_width(2)));
-                chart
-                    .draw_series(series.iter().map(|p| Circle::new(*p, 3, c.filled())))
-                    .map_err(plot_error)?;
-            }
-            chart
-                .configure_series_labels()
-                .position(LEGEND)
-                .label_font(("sans-serif", 12))
-                .background_style(WHITE.mix(0.9))
-                .border_style(BLACK)
-                .draw()
-                .map_err(plot_error)?;
+        for (area, panel) in root.split_evenly((2, 1)).iter().zip(panels) {
+            scaling_panel(area, panel, rows, &methods)?;
         }
         root.present().map_err(plot_error)?;
     }
     rgb_image(pw, ph * 2, buf)
+}
+
+/// What a panel of [`plot_scaling`] plots against the triangle count.
+type ScalingMetric = fn(&BenchRow) -> f64;
+
+/// One log–log panel of [`plot_scaling`]: `(title, y axis, metric)` against triangles, a line
+/// per method.
+fn scaling_panel(
+    area: &plotters::drawing::DrawingArea<plotters::prelude::BitMapBackend<'_>, plotters::coord::Shift>,
+    (title, ydesc, metric): (&str, &str, ScalingMetric),
+    rows: &[BenchRow],
+    methods: &[BenchMethod],
+) -> Result<(), PlotError> {
+    use plotters::prelude::*;
+    // Few triangles and much time or memory: where no line goes.
+    const LEGEND: SeriesLabelPosition = SeriesLabelPosition::UpperLeft;
+    let pts: Vec<(f64, f64)> =
+        rows.iter().map(|r| ((r.triangles as f64).max(1.0), metric(r).max(1e-3))).collect();
+    if pts.is_empty() {
+        return Ok(());
+    }
+    // Compute the axes' decades, then draw the mesh, the lines and the legend.
+    let xr = decades(
+        pts.iter().map(|p| p.0).fold(f64::MAX, f64::min),
+        pts.iter().map(|p| p.0).fold(f64::MIN, f64::max),
+    );
+    let yr = decades(
+        pts.iter().map(|p| p.1).fold(f64::MAX, f64::min),
+        pts.iter().map(|p| p.1).fold(f64::MIN, f64::max),
+    );
+    let mut chart = ChartBuilder::on(area)
+        .caption(title, ("sans-serif", 20))
+        .margin(12)
+        .margin_right(24)
+        .x_label_area_size(42)
+        .y_label_area_size(64)
+        .build_cartesian_2d(xr.log_scale(), yr.log_scale())
+        .map_err(plot_error)?;
+    chart
+        .configure_mesh()
+        .x_desc("triangles")
+        .y_desc(ydesc)
+        .x_label_formatter(&|v| format!("{v:.0e}"))
+        .y_label_formatter(&|v| format!("{v:.0e}"))
+        .label_style(("sans-serif", 13))
+        .draw()
+        .map_err(plot_error)?;
+    for (mi, m) in methods.iter().enumerate() {
+        let c = series_colour(mi);
+        let mut series: Vec<(f64, f64)> =
+            rows.iter().zip(&pts).filter(|(r, _)| r.method == *m).map(|(_, p)| *p).collect();
+        series.sort_by(|a, b| a.0.total_cmp(&b.0));
+        chart
+            .draw_series(LineSeries::new(series.clone(), c.stroke_width(2)))
+            .map_err(plot_error)?
+            .label(m.to_string())
+            .legend(move |(x, y)| PathElement::new(vec![(x, y), (x + 16, y)], c.stroke_width(2)));
+        chart.draw_series(series.iter().map(|p| Circle::new(*p, 3, c.filled()))).map_err(plot_error)?;
+    }
+    chart
+        .configure_series_labels()
+        .position(LEGEND)
+        .label_font(("sans-serif", 12))
+        .background_style(WHITE.mix(0.9))
+        .border_style(BLACK)
+        .draw()
+        .map_err(plot_error)?;
+    Ok(())
 }
