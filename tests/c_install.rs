@@ -68,16 +68,8 @@ fn run_installed(exe: &Path) {
     assert!(stdout.starts_with(&version), "the installed header's version is not {version}: {stdout}");
     assert!(stdout.lines().nth(1).is_some_and(|l| l.starts_with("ok ")), "{stdout}");
 
-    if Command::new("valgrind").arg("--version").output().is_err() {
-        println!("skipped valgrind: not installed");
-        return;
-    }
-    let vg = Command::new("valgrind")
-        .args(["--leak-check=full", "--errors-for-leak-kinds=definite", "--error-exitcode=9", "--quiet"])
-        .arg(exe)
-        .env_remove("LD_LIBRARY_PATH")
-        .output()
-        .unwrap();
+    let Some(mut vg) = common::valgrind(exe) else { return };
+    let vg = vg.env_remove("LD_LIBRARY_PATH").output().unwrap();
     check("the installed program under valgrind", &vg);
 }
 

@@ -1,5 +1,6 @@
 //! The user-geometry plumbing (callbacks, packets, filters, masks, instances), checked with
 //! flat triangles as user geometry against Embree's native triangles on the same rays.
+mod common;
 use glam::{Mat4, Vec3};
 use std::panic::{catch_unwind, AssertUnwindSafe};
 
@@ -375,14 +376,6 @@ fn panicky_scene(device: &Device, in_bounds: bool, in_intersect: bool) -> Scene 
     scene
 }
 
-fn panic_message(payload: Box<dyn std::any::Any + Send>) -> String {
-    payload
-        .downcast_ref::<&str>()
-        .map(|s| s.to_string())
-        .or_else(|| payload.downcast_ref::<String>().cloned())
-        .unwrap_or_default()
-}
-
 #[test]
 fn a_panic_in_intersect_is_resumed_in_the_caller() {
     let device = Device::new().unwrap();
@@ -391,9 +384,9 @@ fn a_panic_in_intersect_is_resumed_in_the_caller() {
     let r = Ray::new(Vec3::new(0.2, 0.3, 1.0), -Vec3::Z);
     let e =
         catch_unwind(AssertUnwindSafe(|| scene.intersect1(r))).expect_err("intersect1 swallowed the panic");
-    assert_eq!(panic_message(e), "intersect exploded");
+    assert_eq!(common::panic_message(e), "intersect exploded");
     let e = catch_unwind(AssertUnwindSafe(|| scene.occluded1(r))).expect_err("occluded1 swallowed the panic");
-    assert_eq!(panic_message(e), "intersect exploded");
+    assert_eq!(common::panic_message(e), "intersect exploded");
     let mut rh = sys::RTCRayHit8::default();
     for k in 0..8 {
         (rh.ray.org_x[k], rh.ray.org_y[k], rh.ray.org_z[k]) = (0.2, 0.3, 1.0);
@@ -401,7 +394,7 @@ fn a_panic_in_intersect_is_resumed_in_the_caller() {
     }
     let e = catch_unwind(AssertUnwindSafe(|| scene.intersect8(&[-1; 8], &mut rh, None)))
         .expect_err("intersect8 swallowed the panic");
-    assert_eq!(panic_message(e), "intersect exploded");
+    assert_eq!(common::panic_message(e), "intersect exploded");
     // Nothing is left pending on the thread: the next query on a sound scene hits.
     let mut good = panicky_scene(&device, false, false);
     good.commit().unwrap();

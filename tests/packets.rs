@@ -1,6 +1,7 @@
 //! 8-ray packets through the safe API (`Scene::intersect8_rays` / `occluded8_rays`): every
 //! lane answers exactly as the single-ray query on its ray, for Embree's own triangles and for
 //! Phong user geometry, coherent or not, whatever the mask; callback panics are resumed.
+mod common;
 use std::panic::{catch_unwind, AssertUnwindSafe};
 
 use glam::Vec3;
@@ -122,14 +123,6 @@ impl UserPrimitives for Exploding {
     }
 }
 
-fn panic_message(payload: Box<dyn std::any::Any + Send>) -> String {
-    payload
-        .downcast_ref::<&str>()
-        .map(|s| s.to_string())
-        .or_else(|| payload.downcast_ref::<String>().cloned())
-        .unwrap_or_default()
-}
-
 #[test]
 fn a_panic_in_a_callback_during_a_packet_query_is_resumed_in_the_caller() {
     let device = Device::new().unwrap();
@@ -140,10 +133,10 @@ fn a_panic_in_a_callback_during_a_packet_query_is_resumed_in_the_caller() {
     for coherent in [true, false] {
         let e = catch_unwind(AssertUnwindSafe(|| scene.intersect8_rays(&rays, 0x24, coherent)))
             .expect_err("intersect8_rays swallowed the panic");
-        assert_eq!(panic_message(e), "packet lane exploded");
+        assert_eq!(common::panic_message(e), "packet lane exploded");
         let e = catch_unwind(AssertUnwindSafe(|| scene.occluded8_rays(&rays, 0x81, coherent)))
             .expect_err("occluded8_rays swallowed the panic");
-        assert_eq!(panic_message(e), "packet lane exploded");
+        assert_eq!(common::panic_message(e), "packet lane exploded");
     }
     // Nothing is left pending on the thread, and nothing was recorded for commit to report.
     let mut good = Scene::new(&device).unwrap();

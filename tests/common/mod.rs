@@ -72,15 +72,8 @@ pub fn run_c(exe: &Path) {
     let stdout = String::from_utf8_lossy(&run.stdout);
     assert!(run.status.success(), "C program failed:\n{stdout}\n{}", String::from_utf8_lossy(&run.stderr));
     assert!(stdout.starts_with("ok "), "{stdout}");
-    if Command::new("valgrind").arg("--version").output().is_err() {
-        println!("skipped valgrind: not installed");
-        return;
-    }
-    let vg = Command::new("valgrind")
-        .args(["--leak-check=full", "--errors-for-leak-kinds=definite", "--error-exitcode=9", "--quiet"])
-        .arg(exe)
-        .output()
-        .unwrap();
+    let Some(mut vg) = valgrind(exe) else { return };
+    let vg = vg.output().unwrap();
     assert!(vg.status.success(), "valgrind reports errors:\n{}", String::from_utf8_lossy(&vg.stderr));
     assert!(String::from_utf8_lossy(&vg.stdout).starts_with("ok "));
 }
@@ -92,4 +85,26 @@ pub fn corpus_quiet() -> Option<PathBuf> {
         .into_iter()
         .chain([root().join("../shared/corpus"), root().join("../../shared/corpus")])
         .find(|c| c.is_dir())
+}
+
+/// `valgrind` (memcheck; definite leaks are errors, exit code 9) set up to run `exe`, or `None`
+/// with a message when valgrind is not installed.
+pub fn valgrind(exe: &Path) -> Option<Command> {
+    if Command::new("valgrind").arg("--version").output().is_err() {
+        println!("skipped valgrind: not installed");
+        return None;
+    }
+    let mut vg = Command::new("valgrind");
+    vg.args(["--leak-check=full", "--errors-for-leak-kinds=definite", "--error-exitcode=9", "--quiet"])
+        .arg(exe);
+    Some(vg)
+}
+
+/// The message of a panic payload (`&str` or `String`; empty otherwise).
+pub fn panic_message(payload: Box<dyn std::any::Any + Send>) -> String {
+    payload
+        .downcast_ref::<&str>()
+        .map(|s| s.to_string())
+        .or_else(|| payload.downcast_ref::<String>().cloned())
+        .unwrap_or_default()
 }
