@@ -365,3 +365,81 @@ pub fn to_markdown(profiles: &[Profile]) -> String {
     }
     s
 }
+
+/// What [`count_work`] runs: the work whose instructions `scripts/instructions.sh` counts.
+#[derive(Clone, Copy, Debug, PartialEq, Eq)]
+pub enum Counted {
+    /// The rays through Embree on the Phong mesh (one patch per primitive).
+    Phong,
+    /// The same rays on Embree's triangles of the mesh.
+    Flat,
+    /// The recorded patch solves that took this path, replayed alone.
+    Outcome(TestOutcome),
+}
+
+/// Set up `m`'s scenes and rays of `kind` (the bench's, `size`²), then run `what` once inside
+/// [`counted_work`], the function a callgrind run collects alone. Returns how many rays (or
+/// patch solves, for [`Counted::Outcome`]) it ran.
+pub fn count_work(
+    name: &str,
+    m: &Mesh,
+    size: u32,
+    kind: RayKind,
+    what: Counted,
+) -> Result<usize, BenchError> {
+    let device = Device::new()?;
+    let (frame, primary) = primary_rays(name, m, size, size)?;
+    let scenes = Scenes::new(&device, m, 1)?;
+    let light = bench_light(&frame);
+    let rays: Vec<Ray> = match kind {
+        RayKind::Primary => primary,
+        RayKind::Shadow => primary
+            .iter()
+            .filter_map(|r| shadow_ray(r, &scenes.direct.intersect1(*r)?, light).map(|(s, _)| s))
+            .collect(),
+    };
+    let solves: Vec<Solve> = match what {
+        Counted::Outcome(outcome) => {
+            let mut solves = Vec::new();
+            for c in calls_of(&scenes.recording.0, &scenes.recording.1, &rays, kind) {
+                scenes.mesh.intersect_primitive(c.prim, c.org, c.dir, c.tnear, c.tfar, |test| {
+                    if test.outcome == outcome {
+                        solves.push(Solve { test, org: c.org, dir: c.dir });
+                    }
+                });
+            }
+            solves
+        }
+        _ => Vec::new(),
+    };
+    let scene = if what == Counted::Flat { &scenes.flat } else { &scenes.direct };
+    counted_work(scene, &scenes.mesh, &rays, kind, &solves, matches!(what, Counted::Outcome(_)));
+    Ok(if matches!(what, Counted::Outcome(_)) { solves.len() } else { rays.len() })
+}
+
+/// The counted work of [`count_work`]: `rays` through `scene`, or the `solves` on `mesh` when
+/// `replay`. Never inlined, so that callgrind's `--toggle-collect=*counted_work*` finds it.
+#[inline(never)]
+fn counted_work(
+    scene: &Scene,
+    mesh: &PhongMesh,
+    rays: &[Ray],
+    kind: RayKind,
+    solves: &[Solve],
+    replay: bool,
+) {
+    if !replay {
+        trace(scene, rays, kind);
+        return;
+    }
+    for s in solves {
+        let Some(p) = mesh.patches().get(s.test.prim as usize) else { continue };
+        let (o, d) = (V3::from(s.org), V3::from(s.dir));
+        let (t0, t1, method) = (s.test.tnear, s.test.tmax, mesh.method());
+        if s.test.hull_tested {
+            std::hint::black_box(intersect_traced(p, o, d, t0, t1, method));
+        } else {
+            std::hint::black_box(intersect_in_hull_traced(p, o, d, t0, t1, method));
+        }
+    }
+}

@@ -39,7 +39,7 @@ pub(super) fn certified_newton<T: Real>(
     tmax: T,
 ) -> Option<Option<PatchHit<T>>> {
     // Compute the certificate, then the root in the plane, then its point in space.
-    let j0 = one_to_one_on_region(pr)?;
+    let anchor = one_to_one_on_region(pr)?;
     let (u, v) = flat_start(pr)?;
     let (u, v, converged) = newton_plane(pr, u, v)?;
     // The ray parameter of the surface point: its projection on the ray.
@@ -57,7 +57,7 @@ pub(super) fn certified_newton<T: Real>(
     let (lo, _) = region::<T>();
     let slack = T::from_f64(0.005);
     let in_r = u >= lo + slack && v >= lo + slack && u + v <= T::ONE - lo - slack;
-    if !converged || !on_ray(p, o, d, u, v, t) || !(in_r || certificate_holds(&j0, jacobian(pr, u, v))) {
+    if !converged || !on_ray(p, o, d, u, v, t) || !(in_r || certificate_holds(&anchor, jacobian(pr, u, v))) {
         return None;
     }
     decide(u, v, t, tmin, tmax)
@@ -93,30 +93,40 @@ fn jacobian<T: Real>(pr: &Projected<T>, u: T, v: T) -> [T; 4] {
     ]
 }
 
-/// `J0` (the Jacobian at the centroid) when the symmetric part of `J0⁻¹ J` is clearly positive
-/// definite at the corners of `R`: then the projection is one-to-one on `R`. `None` when it is not.
-fn one_to_one_on_region<T: Real>(pr: &Projected<T>) -> Option<[T; 4]> {
+/// `J0` (the Jacobian at the centroid) and its inverse's scale, computed once for every
+/// certificate check of a test.
+struct Anchor<T> {
+    /// `J0 = J(1/3, 1/3)`.
+    j0: [T; 4],
+    /// `1 / det J0`.
+    inv_det: T,
+}
+
+/// [`Anchor`] when the symmetric part of `J0⁻¹ J` is clearly positive definite at the corners of
+/// `R`: then the projection is one-to-one on `R`. `None` when it is not, or when `J0` is within
+/// rounding of singular (the ray grazes the patch: it proves nothing).
+fn one_to_one_on_region<T: Real>(pr: &Projected<T>) -> Option<Anchor<T>> {
     let third = T::from_f64(1.0 / 3.0);
     let j0 = jacobian(pr, third, third);
+    let det0 = j0[0] * j0[3] - j0[1] * j0[2];
+    let j0n = j0.iter().fold(T::ZERO, |m, x| m.max(x.abs()));
+    if !(det0.abs() > T::gamma(64).sqrt() * j0n * j0n) {
+        return None;
+    }
+    let anchor = Anchor { j0, inv_det: T::ONE / det0 };
     let (lo, hi) = region::<T>();
     [(lo, lo), (hi, lo), (lo, hi)]
         .into_iter()
-        .all(|(u, v)| certificate_holds(&j0, jacobian(pr, u, v)))
-        .then_some(j0)
+        .all(|(u, v)| certificate_holds(&anchor, jacobian(pr, u, v)))
+        .then_some(anchor)
 }
 
-/// Whether the symmetric part of `J0⁻¹ J` is clearly positive definite (`false` for a `J0`
-/// within rounding of singular: the ray grazes the patch). The matrices that pass form a convex
-/// cone, and `J` is linear in `(u, v)`: passing at the corners of a polygon is passing on all of it.
+/// Whether the symmetric part of `J0⁻¹ J` is clearly positive definite. The matrices that pass
+/// form a convex cone, and `J` is linear in `(u, v)`: passing at the corners of a polygon is
+/// passing on all of it.
 #[inline(always)]
-fn certificate_holds<T: Real>(j0: &[T; 4], j: [T; 4]) -> bool {
-    let det0 = j0[0] * j0[3] - j0[1] * j0[2];
-    let j0n = j0.iter().fold(T::ZERO, |m, x| m.max(x.abs()));
-    // A J0 within rounding of singular proves nothing.
-    if !(det0.abs() > T::gamma(64).sqrt() * j0n * j0n) {
-        return false;
-    }
-    let inv = T::ONE / det0;
+fn certificate_holds<T: Real>(anchor: &Anchor<T>, j: [T; 4]) -> bool {
+    let (j0, inv) = (&anchor.j0, anchor.inv_det);
     // M = J0⁻¹ J; its symmetric part must be clearly positive definite (a margin of 1% of
     // its diagonal product keeps the answer out of the rounding of J0⁻¹ and of J).
     let m00 = (j0[3] * j[0] - j0[1] * j[2]) * inv;

@@ -1,0 +1,63 @@
+//! The work `scripts/instructions.sh` counts under callgrind: the bench's primary or shadow rays
+//! (256², one patch per primitive) through Embree on the Phong mesh or on its flat triangles, or
+//! the patch solves of one outcome replayed alone. Prints how many rays or solves it ran; the
+//! instructions are those of `counted_work` alone (callgrind `--toggle-collect`).
+//!
+//! Run: `cargo run --release --example instructions -- SCENE primary|shadow phong|flat|OUTCOME`,
+//! SCENE `sphere-120` or an OBJ file, OUTCOME a [`TestOutcome`] name with `-` for spaces.
+use std::path::Path;
+use std::process::ExitCode;
+
+use phongrt::phong::TestOutcome;
+use phongrt::scene::{load_obj, uv_sphere, LoadOptions, Mesh};
+use phongrt_cli::profile::{count_work, Counted, RayKind};
+
+/// The mesh of `scene`: the bench's sphere of `sphere-N` triangles, or an OBJ file's first mesh.
+fn mesh(scene: &str) -> Result<Mesh, String> {
+    if let Some(n) = scene.strip_prefix("sphere-") {
+        let tris: usize = n.parse().map_err(|_| format!("{scene}: not sphere-<triangles>"))?;
+        // The bench's spheres (`--spheres S`): S segments, S/2 rings.
+        return (3..=256)
+            .map(|s| uv_sphere(s, (s / 2).max(2), 1.0))
+            .find(|m| m.indices.len() == tris)
+            .ok_or(format!("{scene}: no bench sphere has {tris} triangles"));
+    }
+    let s = load_obj(Path::new(scene), &LoadOptions::default()).map_err(|e| e.to_string())?;
+    s.meshes.into_iter().next().ok_or(format!("{scene}: no mesh"))
+}
+
+fn main() -> ExitCode {
+    let args: Vec<String> = std::env::args().skip(1).collect();
+    let run = || -> Result<usize, String> {
+        let [scene, kind, what] = args.as_slice() else {
+            return Err("usage: instructions SCENE primary|shadow phong|flat|OUTCOME".into());
+        };
+        let kind = match kind.as_str() {
+            "primary" => RayKind::Primary,
+            "shadow" => RayKind::Shadow,
+            k => return Err(format!("{k:?} is not primary or shadow")),
+        };
+        let what = match what.as_str() {
+            "phong" => Counted::Phong,
+            "flat" => Counted::Flat,
+            w => Counted::Outcome(
+                TestOutcome::ALL
+                    .into_iter()
+                    .find(|o| o.name().replace(' ', "-") == w)
+                    .ok_or(format!("{w:?} is not phong, flat or an outcome"))?,
+            ),
+        };
+        let name = Path::new(scene).file_stem().map(|s| s.to_string_lossy().into_owned()).unwrap_or_default();
+        count_work(&name, &mesh(scene)?, 256, kind, what).map_err(|e| e.to_string())
+    };
+    match run() {
+        Ok(n) => {
+            println!("{n}");
+            ExitCode::SUCCESS
+        }
+        Err(e) => {
+            eprintln!("instructions: {e}");
+            ExitCode::FAILURE
+        }
+    }
+}

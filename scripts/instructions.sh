@@ -1,0 +1,54 @@
+#!/usr/bin/env bash
+# Instructions per ray and per patch test, counted by callgrind (repeatable where wall times are
+# not): the bench's primary rays and the shadow rays of its shaded render (256², 1 thread, one
+# patch per primitive), through Embree on the Phong mesh against its flat triangles, and each
+# outcome of the patch solve replayed alone. Only `counted_work` is collected (set-up excluded).
+#
+#   scripts/instructions.sh [SCENE...]     SCENE: sphere-120 (default) or an OBJ file
+#
+# Prints a Markdown table per scene. Needs valgrind.
+set -euo pipefail
+cd "$(dirname "$0")/.."
+command -v valgrind >/dev/null || { echo "instructions.sh: valgrind is not installed" >&2; exit 1; }
+cargo build --release --quiet --example instructions
+bin=target/release/examples/instructions
+[ $# -gt 0 ] || set -- sphere-120
+
+# count SCENE KIND WHAT: prints "items instructions".
+count() {
+    local log out n ir
+    log=$(mktemp)
+    out=$(valgrind --tool=callgrind --callgrind-out-file=/dev/null --collect-atstart=no \
+        --toggle-collect='*counted_work*' "$bin" "$@" 2>"$log") || { cat "$log" >&2; rm -f "$log"; exit 1; }
+    n=$out
+    ir=$(sed -n 's/.*Collected : \([0-9]*\).*/\1/p' "$log")
+    rm -f "$log"
+    echo "$n $ir"
+}
+
+outcomes="hull-reject certified-hit certified-miss analytic-hit analytic-miss f64-retry bad-input"
+for scene in "$@"; do
+    echo "## $scene"
+    echo
+    echo "| rays | phong instr/ray | flat instr/ray | phong / flat | patch tests per ray |"
+    echo "|---|---|---|---|---|"
+    rows=""
+    for kind in primary shadow; do
+        read -r rays phong <<<"$(count "$scene" "$kind" phong)"
+        read -r _ flat <<<"$(count "$scene" "$kind" flat)"
+        tests=0
+        for o in $outcomes; do
+            read -r n ir <<<"$(count "$scene" "$kind" "$o")"
+            [ "$n" -gt 0 ] || continue
+            tests=$((tests + n))
+            rows+="| $kind | ${o//-/ } | $n | $(awk -v a="$n" -v b="$rays" 'BEGIN{printf "%.3f", a/b}') | $((ir / n)) |"$'\n'
+        done
+        awk -v k="$kind" -v p="$phong" -v f="$flat" -v r="$rays" -v t="$tests" \
+            'BEGIN{printf "| %s | %d | %d | %.2f | %.3f |\n", k, p/r, f/r, p/f, t/r}'
+    done
+    echo
+    echo "| rays | outcome | tests | per ray | instr/test |"
+    echo "|---|---|---|---|---|"
+    printf '%s' "$rows"
+    echo
+done
