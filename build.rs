@@ -1,19 +1,42 @@
-//! Find Embree 4, generate its bindings with bindgen, link it with an rpath.
+//! Find Embree 4, generate its bindings with bindgen (or take the committed ones), link it with an
+//! rpath.
 //!
 //! Search order (the first that has `include/embree4/rtcore.h` wins):
 //! 1. `EMBREE_DIR` (a prefix with `include/embree4` and `lib` or `lib64`);
 //! 2. pkg-config `embree4`;
 //! 3. the default system prefixes (`/usr`, `/usr/local`, `/opt/homebrew`, `/opt/local`);
-//! 4. the cache filled by `scripts/setup-embree.sh`
+//! 4. the cache filled by the repository's `scripts/setup-embree.sh`
 //!    (`$PHONGRT_CACHE` or `$XDG_CACHE_HOME/phongrt` or `$HOME/.cache/phongrt`, then `embree-4.4.0`).
+//!
+//! Bindings: bindgen runs on the Embree found, except when `DOCS_RS` is set or the feature
+//! `bundled-bindings` is on. Then the committed `src/sys/embree-4.3.rs` (bindgen's output for the
+//! Embree 4.3.3 headers, 64-bit Linux) is used, and where headers are installed their struct layout
+//! must equal the committed one. With `DOCS_RS` and no Embree at all, only `cargo doc` can build
+//! (the cfg `phongrt_docs_only`; `src/lib.rs` refuses any other build with one line).
+//!
+//! Every failure is one line on stderr and exit status 1: what was found, and what is needed.
 
+use std::collections::BTreeMap;
 use std::env;
 use std::path::{Path, PathBuf};
+
+/// The oldest Embree the library supports (its API and the committed bindings' headers).
+const MIN_VERSION: (u32, u32) = (4, 3);
+/// The committed bindings, relative to the package root.
+const BUNDLED: &str = "src/sys/embree-4.3.rs";
 
 struct Embree {
     include_dir: PathBuf,
     lib_dir: Option<PathBuf>,
     how: String,
+    /// Found in the cache of scripts/setup-embree.sh (the only case worth a cargo:warning).
+    from_cache: bool,
+}
+
+/// Print `msg` as the build's one-line error and stop the build.
+fn fail(msg: &str) -> ! {
+    eprintln!("error: phongrt: {msg}");
+    std::process::exit(1);
 }
 
 fn has_headers(include_dir: &Path) -> bool {
@@ -32,7 +55,12 @@ fn from_prefix(prefix: &Path, how: &str) -> Option<Embree> {
     if !has_headers(&include_dir) {
         return None;
     }
-    Some(Embree { include_dir, lib_dir: lib_dir_of(prefix), how: format!("{how} ({})", prefix.display()) })
+    Some(Embree {
+        include_dir,
+        lib_dir: lib_dir_of(prefix),
+        how: format!("{how} ({})", prefix.display()),
+        from_cache: false,
+    })
 }
 
 fn cache_dir() -> Option<PathBuf> {
@@ -45,49 +73,58 @@ fn cache_dir() -> Option<PathBuf> {
     env::var_os("HOME").map(|h| PathBuf::from(h).join(".cache").join("phongrt"))
 }
 
-fn find_embree() -> Result<Embree, String> {
+/// The Embree 4 install, `Ok(None)` when there is none, `Err` when `EMBREE_DIR` is wrong.
+fn find_embree() -> Result<Option<Embree>, String> {
     // 1. EMBREE_DIR: an explicit choice must be right, or we say so.
     if let Some(dir) = env::var_os("EMBREE_DIR") {
         let dir = PathBuf::from(dir);
-        return from_prefix(&dir, "EMBREE_DIR").ok_or_else(|| {
-            format!(
-                "EMBREE_DIR={} has no include/embree4/rtcore.h; point it at an Embree 4 install prefix",
+        return match from_prefix(&dir, "EMBREE_DIR") {
+            Some(e) => Ok(Some(e)),
+            None => Err(format!(
+                "EMBREE_DIR={} has no include/embree4/rtcore.h; point it at an Embree 4.3+ install prefix",
                 dir.display()
-            )
-        });
+            )),
+        };
     }
     // 2. pkg-config.
     if let Ok(lib) = pkg_config::Config::new().atleast_version("4.0").cargo_metadata(false).probe("embree4") {
         if let Some(inc) = lib.include_paths.iter().find(|p| has_headers(p)) {
-            return Ok(Embree {
+            return Ok(Some(Embree {
                 include_dir: inc.clone(),
                 lib_dir: lib.link_paths.first().cloned(),
                 how: format!("pkg-config embree4 {}", lib.version),
-            });
+                from_cache: false,
+            }));
         }
     }
     // 3. System prefixes.
     for prefix in ["/usr", "/usr/local", "/opt/homebrew", "/opt/local"] {
         if let Some(e) = from_prefix(Path::new(prefix), "system") {
-            return Ok(e);
+            return Ok(Some(e));
         }
     }
-    // 4. The cache of scripts/setup-embree.sh.
-    if let Some(cache) = cache_dir() {
-        if let Some(e) = from_prefix(&cache.join("embree-4.4.0"), "setup-embree.sh cache") {
-            return Ok(e);
-        }
-    }
-    Err("Embree 4 was not found.\n\
-         Looked at: EMBREE_DIR, pkg-config `embree4`, /usr, /usr/local, /opt/homebrew, /opt/local and the\n\
-         cache of scripts/setup-embree.sh. To get it:\n\
-         - Debian 12 / Ubuntu 22.04 (no Embree 4 package): run `scripts/setup-embree.sh` (fetches the\n\
-           Debian 13 headers and the PyPI embreex runtime into ~/.cache/phongrt; no system changes\n\
-           beyond `apt-get install libclang-dev`), or just use `scripts/test.sh` / `scripts/demo.sh`;\n\
-         - Debian 13 / Ubuntu 24.04: `apt-get install libembree-dev`; Arch: `pacman -S embree`;\n\
-           macOS: `brew install embree`;\n\
-         - or set EMBREE_DIR to an Embree 4 prefix (with include/embree4 and lib)."
-        .to_string())
+    // 4. The cache of scripts/setup-embree.sh (a clone of the repository fills it).
+    let cached = cache_dir().and_then(|c| from_prefix(&c.join("embree-4.4.0"), "the setup-embree.sh cache"));
+    Ok(cached.map(|e| Embree { from_cache: true, ..e }))
+}
+
+/// The one line for a machine without Embree 4: where we looked and how to get it.
+const NOT_FOUND: &str = "Embree 4.3+ not found (looked at EMBREE_DIR, pkg-config embree4, /usr, /usr/local, \
+     /opt/homebrew, /opt/local); install it (Debian 13 / Ubuntu 24.04: apt install libembree-dev; \
+     Arch: pacman -S embree; macOS: brew install embree) or set EMBREE_DIR to an Embree 4.3+ prefix \
+     with include/embree4 and lib";
+
+/// `RTC_VERSION_MAJOR`, `_MINOR` and `_PATCH` of the headers in `include_dir`.
+fn header_version(include_dir: &Path) -> Result<(u32, u32, u32), String> {
+    let config = include_dir.join("embree4").join("rtcore_config.h");
+    let text =
+        std::fs::read_to_string(&config).map_err(|e| format!("cannot read {}: {e}", config.display()))?;
+    let define = |name: &str| -> Result<u32, String> {
+        text.lines()
+            .find_map(|l| l.trim().strip_prefix("#define ")?.trim().strip_prefix(name)?.trim().parse().ok())
+            .ok_or_else(|| format!("{} has no `#define {name} N`", config.display()))
+    };
+    Ok((define("RTC_VERSION_MAJOR")?, define("RTC_VERSION_MINOR")?, define("RTC_VERSION_PATCH")?))
 }
 
 /// Whether the dynamic loader finds libraries in `dir` without help (no rpath, no
@@ -108,10 +145,14 @@ fn is_system_lib_dir(dir: &Path) -> bool {
     .any(|d| dir == Path::new(d))
 }
 
+fn out_dir() -> PathBuf {
+    PathBuf::from(env::var_os("OUT_DIR").unwrap_or_else(|| fail("cargo did not set OUT_DIR")))
+}
+
 /// Link (or copy) Embree's runtime files from `lib_dir` into `OUT_DIR/lib`: `libembree4*` and the
 /// TBB it was built with (`libtbb*`), shared objects only. Returns that directory.
 fn runtime_into_out_dir(lib_dir: &Path) -> std::io::Result<PathBuf> {
-    let out = PathBuf::from(env::var("OUT_DIR").expect("cargo sets OUT_DIR")).join("lib");
+    let out = out_dir().join("lib");
     std::fs::create_dir_all(&out)?;
     for entry in std::fs::read_dir(lib_dir)? {
         let entry = entry?;
@@ -135,34 +176,14 @@ fn runtime_into_out_dir(lib_dir: &Path) -> std::io::Result<PathBuf> {
     Ok(out)
 }
 
-fn main() {
-    for var in ["EMBREE_DIR", "PKG_CONFIG_PATH", "PHONGRT_CACHE", "XDG_CACHE_HOME", "HOME", "LIBCLANG_PATH"] {
-        println!("cargo:rerun-if-env-changed={var}");
-    }
-    println!("cargo:rerun-if-changed=build.rs");
-
-    let embree = match find_embree() {
-        Ok(e) => e,
-        Err(msg) => {
-            eprintln!("\nerror: {msg}\n");
-            panic!("phongrt build: Embree 4 not found (see the message above)");
-        }
-    };
-    let rtcore = embree.include_dir.join("embree4").join("rtcore.h");
-    println!("cargo:rerun-if-changed={}", rtcore.display());
-    println!(
-        "cargo:rerun-if-changed={}",
-        embree.include_dir.join("embree4").join("rtcore_config.h").display()
-    );
-    println!("cargo:warning=phongrt: using Embree 4 from {}", embree.how);
-
-    // Link, with an rpath so target/*/phongrt and the test binaries run without LD_LIBRARY_PATH.
+/// Link Embree, with an rpath so target/*/phongrt and the test binaries run without LD_LIBRARY_PATH.
+fn link(embree: &Embree) {
     if let Some(lib_dir) = &embree.lib_dir {
-        // For dependents: the rpath above applies to this package's own targets only, but Cargo
-        // puts every link-search path that lies inside OUT_DIR on the dynamic-library path of
-        // `cargo run` and `cargo test` (the Cargo book, build scripts, `rustc-link-search`), so
-        // an Embree the system loader cannot find is linked into OUT_DIR/lib (symlinks, or copies
-        // where links fail) and searched there first.
+        // For dependents: the rpath applies to this package's own targets only, but Cargo puts
+        // every link-search path that lies inside OUT_DIR on the dynamic-library path of `cargo
+        // run` and `cargo test` (the Cargo book, build scripts, `rustc-link-search`), so an Embree
+        // the system loader cannot find is linked into OUT_DIR/lib (symlinks, or copies where
+        // links fail) and searched there first.
         if !is_system_lib_dir(lib_dir) {
             match runtime_into_out_dir(lib_dir) {
                 Ok(dir) => println!("cargo:rustc-link-search=native={}", dir.display()),
@@ -185,11 +206,16 @@ fn main() {
     println!("cargo:rustc-link-lib=dylib=embree4");
     println!("cargo:rustc-env=PHONGRT_EMBREE_INCLUDE_DIR={}", embree.include_dir.display());
     println!("cargo:include={}", embree.include_dir.display());
+}
 
-    // Bindings: only the rtc API, enums as newtypes (no UB on unknown values), flags as bitfields.
-    let bindings = bindgen::Builder::default()
+/// bindgen on the installed `rtcore.h`: only the rtc API, enums as newtypes (no UB on unknown
+/// values), flags as bitfields, with layout checks. `Err` when libclang cannot be loaded or parses
+/// nothing.
+fn generate(include_dir: &Path) -> Result<String, String> {
+    let rtcore = include_dir.join("embree4").join("rtcore.h");
+    let builder = bindgen::Builder::default()
         .header(rtcore.to_string_lossy())
-        .clang_arg(format!("-I{}", embree.include_dir.display()))
+        .clang_arg(format!("-I{}", include_dir.display()))
         .allowlist_function("rtc.*")
         .allowlist_type("RTC.*")
         .allowlist_var("RTC.*")
@@ -199,9 +225,110 @@ fn main() {
         .derive_debug(true)
         .layout_tests(true)
         .generate_comments(false)
-        .parse_callbacks(Box::new(bindgen::CargoCallbacks::new()))
-        .generate()
-        .unwrap_or_else(|e| panic!("bindgen failed on {}: {e}", rtcore.display()));
-    let out = PathBuf::from(env::var("OUT_DIR").expect("cargo sets OUT_DIR")).join("embree4.rs");
-    bindings.write_to_file(&out).unwrap_or_else(|e| panic!("cannot write {}: {e}", out.display()));
+        .parse_callbacks(Box::new(bindgen::CargoCallbacks::new()));
+    // bindgen panics when it cannot load libclang: that is an Err here, not a backtrace.
+    match std::panic::catch_unwind(std::panic::AssertUnwindSafe(move || builder.generate())) {
+        Ok(Ok(b)) => Ok(b.to_string()),
+        Ok(Err(e)) => Err(format!("bindgen failed on {}: {e}", rtcore.display())),
+        Err(_) => Err("bindgen could not load libclang (set LIBCLANG_PATH)".to_string()),
+    }
+}
+
+/// The layout bindgen asserts for each struct, from its generated checks: `"Size of RTCRay" -> 64`.
+fn layout_of(bindings: &str) -> BTreeMap<String, u64> {
+    bindings
+        .lines()
+        .filter_map(|l| {
+            let l = l.trim().strip_prefix("[\"")?;
+            let (what, rest) = l.split_once("\"]")?;
+            let n = rest.rsplit_once(" - ")?.1.strip_suffix("usize];")?;
+            Some((what.to_string(), n.parse().ok()?))
+        })
+        .collect()
+}
+
+/// `Err` naming the first layout that differs between the committed bindings and `installed`.
+fn check_layout(bundled: &str, installed: &str, headers: &Path) -> Result<(), String> {
+    let (want, have) = (layout_of(bundled), layout_of(installed));
+    let differs = want.iter().find(|(k, v)| have.get(*k) != Some(*v));
+    match differs {
+        None => Ok(()),
+        Some((what, n)) => Err(format!(
+            "the bundled Embree 4.3 bindings ({BUNDLED}) do not match the headers in {}: {what} is {} there, \
+             {n} bundled; build without feature bundled-bindings (and without DOCS_RS) to generate them",
+            headers.display(),
+            have.get(what).map_or("absent".to_string(), |v| v.to_string()),
+        )),
+    }
+}
+
+/// The bindings to compile: the installed headers' (bindgen), or the committed ones, checked
+/// against the installed headers where there are any.
+fn bindings(embree: Option<&Embree>, bundled: bool) -> String {
+    let committed = || {
+        let path = Path::new(BUNDLED);
+        println!("cargo:rerun-if-changed={BUNDLED}");
+        std::fs::read_to_string(path).unwrap_or_else(|e| fail(&format!("cannot read {BUNDLED}: {e}")))
+    };
+    match (embree, bundled) {
+        (None, _) => committed(),
+        (Some(e), false) => generate(&e.include_dir).unwrap_or_else(|msg| fail(&msg)),
+        (Some(e), true) => {
+            let text = committed();
+            // No libclang (an offline machine with the feature on): the committed layout checks
+            // still hold the bindings to the target; there is nothing installed to compare with.
+            if let Ok(installed) = generate(&e.include_dir) {
+                check_layout(&text, &installed, &e.include_dir).unwrap_or_else(|msg| fail(&msg));
+            }
+            text
+        }
+    }
+}
+
+fn main() {
+    for var in [
+        "EMBREE_DIR",
+        "PKG_CONFIG_PATH",
+        "PHONGRT_CACHE",
+        "XDG_CACHE_HOME",
+        "HOME",
+        "LIBCLANG_PATH",
+        "DOCS_RS",
+    ] {
+        println!("cargo:rerun-if-env-changed={var}");
+    }
+    println!("cargo:rerun-if-changed=build.rs");
+    println!("cargo:rustc-check-cfg=cfg(phongrt_docs_only)");
+    let docs_rs = env::var_os("DOCS_RS").is_some();
+    let bundled = docs_rs || env::var_os("CARGO_FEATURE_BUNDLED_BINDINGS").is_some();
+
+    let embree = find_embree().unwrap_or_else(|msg| fail(&msg));
+    match &embree {
+        None if docs_rs => println!("cargo:rustc-cfg=phongrt_docs_only"),
+        None => fail(NOT_FOUND),
+        Some(e) => {
+            let (major, minor, patch) = header_version(&e.include_dir).unwrap_or_else(|msg| fail(&msg));
+            if (major, minor) < MIN_VERSION {
+                fail(&format!(
+                    "Embree {major}.{minor}.{patch} found at {}, phongrt needs Embree 4.3 or newer \
+                     (set EMBREE_DIR to a 4.3+ prefix)",
+                    e.how
+                ));
+            }
+            for h in ["rtcore.h", "rtcore_config.h"] {
+                println!("cargo:rerun-if-changed={}", e.include_dir.join("embree4").join(h).display());
+            }
+            if e.from_cache {
+                println!(
+                    "cargo:warning=phongrt: using Embree (headers {major}.{minor}.{patch}) from {}",
+                    e.how
+                );
+            }
+            link(e);
+        }
+    }
+    let text = bindings(embree.as_ref(), bundled);
+    let out = out_dir().join("embree4.rs");
+    std::fs::write(&out, text).unwrap_or_else(|e| fail(&format!("cannot write {}: {e}", out.display())));
+    println!("cargo:rustc-env=PHONGRT_BINDINGS_RS={}", out.display());
 }

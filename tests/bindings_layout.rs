@@ -1,0 +1,35 @@
+//! The committed Embree 4.3 bindings (src/sys/embree-4.3.rs, used with `DOCS_RS` or the feature
+//! `bundled-bindings`) lay out every struct as the installed headers do: each size, alignment and
+//! field offset that bindgen asserts in the committed file is the one it asserts for the headers
+//! this build found (build.rs writes the bindings it compiles to `PHONGRT_BINDINGS_RS`).
+use std::collections::BTreeMap;
+
+/// bindgen's layout checks: `["Size of RTCRay"][size_of::<RTCRay>() - 64usize];` -> ("Size of RTCRay", 64).
+fn layout_of(bindings: &str) -> BTreeMap<String, u64> {
+    bindings
+        .lines()
+        .filter_map(|l| {
+            let l = l.trim().strip_prefix("[\"")?;
+            let (what, rest) = l.split_once("\"]")?;
+            let n = rest.rsplit_once(" - ")?.1.strip_suffix("usize];")?;
+            Some((what.to_string(), n.parse().ok()?))
+        })
+        .collect()
+}
+
+#[test]
+fn bundled_bindings_have_the_layout_of_the_installed_headers() {
+    let bundled = include_str!("../src/sys/embree-4.3.rs");
+    let built = std::fs::read_to_string(env!("PHONGRT_BINDINGS_RS")).unwrap();
+    let (want, have) = (layout_of(bundled), layout_of(&built));
+    // RTCBounds, RTCRay, RTCHit, RTCRayHit and their packets, the callback arguments...
+    assert!(want.len() > 150, "only {} layout checks in the committed bindings", want.len());
+    for key in ["Size of RTCRayHit", "Size of RTCHit", "Size of RTCRay", "Size of RTCBounds"] {
+        assert!(want.contains_key(key), "no `{key}` check in the committed bindings");
+    }
+    let differ: Vec<_> = want.iter().filter(|(k, v)| have.get(*k) != Some(*v)).collect();
+    assert!(differ.is_empty(), "the committed bindings differ from the installed headers: {differ:?}");
+    // The trap of Embree 4.2 headers (as embree4-sys 0.0.12 bundles): there RTCRayHit is 80 bytes.
+    assert_eq!(want["Size of RTCRayHit"], 96);
+    assert_eq!(std::mem::size_of::<phongrt::sys::RTCRayHit>(), 96);
+}
