@@ -132,6 +132,60 @@ pub fn straight_edges(edge_kinds: &[[EdgeKind; 3]]) -> Vec<[bool; 3]> {
     edge_kinds.iter().map(|k| k.map(|e| e != EdgeKind::Smooth)).collect()
 }
 
+/// The default angle (radians) within which two unit normals at one position count as the same
+/// normal ([`NormalSnap`]): normals that differ only by rounding (a sin/cos sphere's poles and
+/// seam, `-0` against `0`) must not make a crease.
+pub const NORMAL_TOLERANCE: f32 = 1e-4;
+
+/// Makes nearly equal normals at a position equal, bit for bit: per welded position, the first
+/// normal seen within the tolerance angle of a later one stands for both. With a tolerance of 0
+/// normals are compared bit for bit (the rule before the tolerance, `-0` and `0` distinct).
+#[derive(Debug, Default)]
+pub struct NormalSnap {
+    /// `sin` of the tolerance angle; `None` for bit-for-bit comparison.
+    sin_tol: Option<f64>,
+    seen: HashMap<u32, Vec<Vec3>>,
+}
+
+impl NormalSnap {
+    /// Normals within `tol` radians (clamped to [0, 0.1]) count as equal; 0 compares bit for bit.
+    pub fn new(tol: f32) -> NormalSnap {
+        let tol = if tol.is_finite() { tol.clamp(0.0, 0.1) } else { 0.0 };
+        NormalSnap { sin_tol: (tol > 0.0).then(|| (tol as f64).sin()), seen: HashMap::new() }
+    }
+
+    /// The normal to use for unit normal `n` at welded position `pid`: an earlier one at `pid`
+    /// within the tolerance, else `n` itself (with `-0` components made `+0`).
+    pub fn snap(&mut self, pid: u32, n: Vec3) -> Vec3 {
+        let Some(sin_tol) = self.sin_tol else { return n };
+        let n = n + Vec3::ZERO; // -0 + 0 = +0
+        let list = self.seen.entry(pid).or_default();
+        // Compare in f64: the sine of the angle between them, on the same side.
+        let close = |m: &Vec3| {
+            let (a, b) = (m.as_dvec3(), n.as_dvec3());
+            a.dot(b) > 0.0 && a.cross(b).length() <= sin_tol * a.length() * b.length()
+        };
+        if let Some(m) = list.iter().find(|m| close(m)) {
+            return *m;
+        }
+        list.push(n);
+        n
+    }
+}
+
+/// Per triangle: whether it repeats an earlier triangle's three welded positions, in either
+/// winding (such a copy makes every edge it shares non-manifold, and so straight).
+pub fn duplicate_triangles(position_triples: impl IntoIterator<Item = [u32; 3]>) -> Vec<bool> {
+    let mut seen: std::collections::HashSet<[u32; 3]> = Default::default();
+    position_triples
+        .into_iter()
+        .map(|mut t| {
+            t.sort_unstable();
+            !seen.insert(t)
+        })
+        .collect()
+}
+
 /// The default welding tolerance of [`prepare`], relative to the diagonal of the bounds of the
 /// positions the triangles use (the OBJ loader's default too).
 pub const WELD_TOLERANCE: f32 = 1e-6;
@@ -167,8 +221,8 @@ impl Prepared {
 ///    positions (capped per vertex by [`weld_caps`]); welded corners take the first position of
 ///    their cluster, bit for bit;
 /// 2. make one vertex per (welded position, unit normal): corners that share a position and a
-///    normal share a vertex, whatever the caller's indexing (a triangle soup too), and all of
-///    them get that normal bit for bit;
+///    normal (within [`NORMAL_TOLERANCE`] radians, see [`NormalSnap`]) share a vertex, whatever
+///    the caller's indexing (a triangle soup too), and all of them get that normal bit for bit;
 /// 3. classify the edges ([`classify_edges`]): an edge is smooth where both of its ends share
 ///    vertices with the neighbour's, a crease where they share only positions.
 ///
@@ -199,11 +253,13 @@ pub fn prepare(positions: &[Vec3], normals: &[Vec3], indices: &[[u32; 3]], weld_
         edge_kinds: Vec::new(),
     };
     let mut renumber: HashMap<u32, u32> = HashMap::new();
+    let mut snap = NormalSnap::new(NORMAL_TOLERANCE);
     for tri in indices {
         let t = tri.map(|i| {
             let p = pid[i as usize];
             // In f64: a tiny f32 normal has no f64 length underflow.
             let n = normals[i as usize].as_dvec3().normalize_or_zero().as_vec3();
+            let n = snap.snap(p, n);
             let key = (p, n.to_array().map(f32::to_bits));
             *vmap.entry(key).or_insert_with(|| {
                 out.positions.push(positions[p as usize]);
