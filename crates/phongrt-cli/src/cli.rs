@@ -22,7 +22,7 @@ pub struct Cli {
 pub enum Command {
     /// Render an OBJ file to a PNG (sRGB) or EXR (linear) image.
     #[command(after_help = RENDER_EXAMPLES)]
-    Render(RenderArgs),
+    Render(Box<RenderArgs>),
     /// Describe an OBJ file (objects, vertices, triangles, normals, bounds) and the Embree in use.
     Info(InfoArgs),
     /// Assemble tiles rendered with --tile I/N or --crop into one image, bit-identical to the

@@ -97,7 +97,7 @@ fn one_line(e: &anyhow::Error) -> String {
 fn run(cli: Cli) -> anyhow::Result<()> {
     embree::set_flush_denormals();
     match cli.command {
-        Command::Render(args) => render_cmd(args),
+        Command::Render(args) => render_cmd(*args),
         Command::Info(args) => info_cmd(args),
         Command::Stitch(args) => stitch_cmd(args),
         Command::Bench(args) => bench_cmd(args),
