@@ -112,16 +112,34 @@ fn keeping_duplicate_faces_makes_their_edges_non_manifold() {
 }
 
 #[test]
-fn a_model_without_normals_that_is_mostly_creases_gets_a_crease_angle_warning() {
-    // The octahedron's faces meet at 109.5°: all 12 edges are creases at 30°, none at 120°.
-    let s = load(&doubled_octahedron_obj(), &LoadOptions::default());
+fn a_model_without_normals_with_many_soft_creases_gets_a_crease_angle_warning() {
+    // A 16-sided cylinder without caps: its sides meet at 22.5°, creases at a 20° crease angle.
+    let mut t = String::new();
+    for z in [0, 1] {
+        for s in 0..16 {
+            let a = std::f32::consts::TAU * s as f32 / 16.0;
+            t += &format!("v {} {} {z}\n", a.cos(), a.sin());
+        }
+    }
+    for s in 0..16 {
+        let (a, b) = (s + 1, (s + 1) % 16 + 1);
+        t += &format!("f {a} {b} {} {}\n", b + 16, a + 16);
+    }
+    let warned = |angle: f32| {
+        let s = load(&t, &LoadOptions { crease_angle_deg: angle, ..LoadOptions::default() });
+        s.warnings.iter().any(|w| w.contains("16 of the 32 edges") && w.contains("--crease-angle"))
+    };
+    assert!(warned(20.0));
+    assert!(!warned(30.0));
+}
+
+#[test]
+fn a_box_without_normals_gets_no_crease_angle_warning() {
+    let mut t = String::from("v 0 0 0\nv 1 0 0\nv 1 1 0\nv 0 1 0\nv 0 0 1\nv 1 0 1\nv 1 1 1\nv 0 1 1\n");
+    for f in [[1, 4, 3, 2], [5, 6, 7, 8], [1, 2, 6, 5], [2, 3, 7, 6], [3, 4, 8, 7], [4, 1, 5, 8]] {
+        t += &format!("f {} {} {} {}\n", f[0], f[1], f[2], f[3]);
+    }
+    let s = load(&t, &LoadOptions::default());
     assert_eq!(s.stats.crease_edges, 12);
-    assert!(
-        s.warnings.iter().any(|w| w.contains("12 of the 12 edges") && w.contains("--crease-angle")),
-        "{:?}",
-        s.warnings
-    );
-    let s =
-        load(&doubled_octahedron_obj(), &LoadOptions { crease_angle_deg: 120.0, ..LoadOptions::default() });
     assert!(!s.warnings.iter().any(|w| w.contains("--crease-angle")), "{:?}", s.warnings);
 }

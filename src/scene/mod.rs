@@ -675,24 +675,53 @@ fn warn_built_meshes(
     }
 }
 
-/// A warning when most shared edges of the meshes whose normals were computed are creases (the
-/// model renders as faceted as flat), suggesting a larger `--crease-angle`.
+/// A warning when many edges of the meshes whose normals were computed are creases that are
+/// not hard edges (their faces meet at less than [`SOFT_CREASE_DEG`]): more than a quarter of
+/// the shared edges. The model then renders about as faceted as flat, and a larger
+/// `--crease-angle` would smooth it. A box or a capped cylinder (creases of 90°) gets none.
 fn crease_warning(meshes: &[Mesh], opts: &LoadOptions, name: &str) -> Option<String> {
-    let (mut crease, mut shared) = (0usize, 0usize);
+    let (mut soft, mut shared) = (0usize, 0usize);
     for m in meshes.iter().filter(|m| m.normals_source != NormalsSource::FromFile) {
-        for k in m.edge_kinds.iter().flatten() {
-            crease += (*k == EdgeKind::Crease) as usize;
-            shared += matches!(k, EdgeKind::Crease | EdgeKind::Smooth) as usize;
-        }
+        let (s, n) = soft_creases(m);
+        soft += s;
+        shared += n;
     }
-    // Each shared edge was counted from both sides.
-    let (crease, shared) = (crease / 2, shared / 2);
-    (shared > 0 && 2 * crease > shared).then(|| {
+    (shared > 0 && 4 * soft > shared).then(|| {
         format!(
-            "{name}: {crease} of the {shared} edges with computed normals are creases at the {}° crease angle, so the model looks faceted; try a larger --crease-angle",
+            "{name}: {soft} of the {shared} edges with computed normals are creases under {SOFT_CREASE_DEG}° at the {}° crease angle, so the model looks faceted; try a larger --crease-angle (e.g. 60)",
             opts.crease_angle_deg
         )
     })
+}
+
+/// Creases whose faces meet at less than this (degrees) count as soft in [`crease_warning`].
+const SOFT_CREASE_DEG: f32 = 80.0;
+
+/// A mesh's crease edges whose two faces' normals differ by less than [`SOFT_CREASE_DEG`], and
+/// its shared (smooth or crease) edges, each edge counted once.
+fn soft_creases(m: &Mesh) -> (usize, usize) {
+    let face_normal = |t: usize| {
+        let [a, b, c] = m.indices[t].map(|i| m.positions[i as usize].as_dvec3());
+        (b - a).cross(c - a).normalize_or_zero()
+    };
+    let mut creases: HashMap<(u32, u32), Vec<usize>> = HashMap::new();
+    let mut shared = 0;
+    for (t, kinds) in m.edge_kinds.iter().enumerate() {
+        for (k, kind) in kinds.iter().enumerate() {
+            shared += matches!(kind, EdgeKind::Crease | EdgeKind::Smooth) as usize;
+            if *kind == EdgeKind::Crease {
+                let tri = m.indices[t];
+                let (a, b) = (m.position_ids[tri[k] as usize], m.position_ids[tri[(k + 1) % 3] as usize]);
+                creases.entry((a.min(b), a.max(b))).or_default().push(t);
+            }
+        }
+    }
+    let cos_soft = (SOFT_CREASE_DEG as f64).to_radians().cos();
+    let soft = creases
+        .values()
+        .filter(|f| f.len() == 2 && face_normal(f[0]).dot(face_normal(f[1])) > cos_soft)
+        .count();
+    (soft, shared / 2)
 }
 
 fn angle_at(a: Vec3, b: Vec3, c: Vec3) -> f32 {
