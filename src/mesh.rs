@@ -186,6 +186,56 @@ pub fn duplicate_triangles(position_triples: impl IntoIterator<Item = [u32; 3]>)
         .collect()
 }
 
+/// The largest offset of a Phong patch from its flat triangle, relative to the triangle's width
+/// (its smallest altitude, `2 · area / longest edge`), over a mesh: `(ratio, triangle)`, or
+/// `None` for a mesh with no triangle of non-zero area. A balloon (a sliver's patch swollen far
+/// off its triangle by wild normals) shows as a ratio of several; a smooth low-poly sphere's
+/// patches stand a fraction of their width off theirs.
+///
+/// The patch minus its triangle is the quadratic `Σ 2 w_i w_j (c_ij − m_ij)` over the edges, with
+/// `c_ij` the edge's control point and `m_ij` its midpoint; its length is taken on a grid of
+/// 231 points `(u, v)` (steps of 1/20), so the figure is a close lower bound.
+pub fn max_patch_deviation(
+    positions: &[Vec3],
+    normals: &[Vec3],
+    indices: &[[u32; 3]],
+    straight: &[[bool; 3]],
+    alpha: f64,
+) -> Option<(f64, usize)> {
+    use crate::phong::V3;
+    const STEPS: usize = 20;
+    let mut best: Option<(f64, usize)> = None;
+    for (t, tri) in indices.iter().enumerate() {
+        // Compute the edges' control-point offsets from their midpoints.
+        let p = tri.map(|i| V3::from(positions[i as usize].as_dvec3()));
+        let n = tri.map(|i| V3::from(normals[i as usize].as_dvec3()));
+        let st = straight.get(t).copied().unwrap_or([false; 3]);
+        let c = crate::phong::control_points(p, n, alpha, st);
+        let d = [(c[3] - (p[0] + p[1]) * 0.5), (c[4] - (p[1] + p[2]) * 0.5), (c[5] - (p[2] + p[0]) * 0.5)];
+        let longest = (p[1] - p[0]).length().max((p[2] - p[1]).length()).max((p[0] - p[2]).length());
+        let size = (p[1] - p[0]).cross(p[2] - p[0]).length() / longest;
+        if !(size > 0.0) {
+            continue;
+        }
+        // Compute the largest offset on the grid (w = barycentric weights of corners 0, 1, 2).
+        let mut worst = 0.0f64;
+        for i in 0..=STEPS {
+            for j in 0..=STEPS - i {
+                let w =
+                    [i as f64 / STEPS as f64, j as f64 / STEPS as f64, (STEPS - i - j) as f64 / STEPS as f64];
+                let off =
+                    d[0] * (2.0 * w[0] * w[1]) + d[1] * (2.0 * w[1] * w[2]) + d[2] * (2.0 * w[2] * w[0]);
+                worst = worst.max(off.length());
+            }
+        }
+        let ratio = worst / size;
+        if ratio.is_finite() && best.is_none_or(|(b, _)| ratio > b) {
+            best = Some((ratio, t));
+        }
+    }
+    best
+}
+
 /// The default welding tolerance of [`prepare`], relative to the diagonal of the bounds of the
 /// positions the triangles use (the OBJ loader's default too).
 pub const WELD_TOLERANCE: f32 = 1e-6;
@@ -310,6 +360,34 @@ mod tests {
         assert_eq!(m.positions.len(), 5);
         assert_eq!(m.edge_kinds[0][2], EdgeKind::Crease);
         assert_eq!(m.edge_kinds[1][0], EdgeKind::Crease);
+    }
+
+    /// A triangle `(0,0,0), (L,0,0), (0,W,0)` whose corner normals lean out by 20° in the plane.
+    fn leaning(l: f32, w: f32) -> (Vec<Vec3>, Vec<Vec3>, Vec<[u32; 3]>) {
+        let (s, c) = 20f32.to_radians().sin_cos();
+        let p = vec![Vec3::ZERO, Vec3::new(l, 0.0, 0.0), Vec3::new(0.0, w, 0.0)];
+        let n = vec![Vec3::new(-s, -s, c).normalize(), Vec3::new(s, 0.0, c), Vec3::new(0.0, s, c)];
+        (p, n, vec![[0, 1, 2]])
+    }
+
+    #[test]
+    fn a_flat_patch_and_straight_edges_deviate_nothing() {
+        let (p, _, i) = leaning(1.0, 1.0);
+        let flat = max_patch_deviation(&p, &[Vec3::Z; 3], &i, &[], 0.75).unwrap();
+        assert_eq!(flat, (0.0, 0));
+        let (p, n, i) = leaning(1.0, 1.0);
+        let straight = max_patch_deviation(&p, &n, &i, &[[true; 3]], 0.75).unwrap();
+        assert_eq!(straight, (0.0, 0));
+    }
+
+    #[test]
+    fn a_sliver_with_leaning_normals_deviates_by_many_widths() {
+        let (p, n, i) = leaning(1.0, 1.0);
+        let wide = max_patch_deviation(&p, &n, &i, &[], 0.75).unwrap().0;
+        let (p, n, i) = leaning(100.0, 1.0);
+        let sliver = max_patch_deviation(&p, &n, &i, &[], 0.75).unwrap().0;
+        assert!(wide > 0.01 && wide < 0.5, "{wide}");
+        assert!(sliver > 5.0, "{sliver}");
     }
 
     #[test]

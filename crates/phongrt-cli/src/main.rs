@@ -1186,6 +1186,26 @@ fn report(what: &str, out: &RenderOutput) {
     );
 }
 
+/// The largest patch offset from its flat triangle relative to the triangle's width, over the
+/// scene's meshes at the default alpha with straight creases: `(ratio, mesh, triangle)`.
+fn largest_deviation(s: &scene::Scene) -> Option<(f64, usize, usize)> {
+    let alpha = phongrt::phong::DEFAULT_ALPHA as f64;
+    s.meshes
+        .iter()
+        .enumerate()
+        .filter_map(|(k, m)| {
+            phongrt::mesh::max_patch_deviation(
+                &m.positions,
+                &m.normals,
+                &m.indices,
+                &m.straight_edges(),
+                alpha,
+            )
+            .map(|(r, t)| (r, k, t))
+        })
+        .max_by(|a, b| a.0.total_cmp(&b.0))
+}
+
 fn info_cmd(args: InfoArgs) -> anyhow::Result<()> {
     let s = load(&args.scene, &load_options(&args.load, args.load.crease_angle)?)?;
     let device = Device::new().context("cannot start Embree")?;
@@ -1203,6 +1223,7 @@ fn info_cmd(args: InfoArgs) -> anyhow::Result<()> {
             "normals": { "from_file": st.normals_from_file, "computed": st.normals_computed },
             "edges": { "smooth": st.smooth_edges, "crease": st.crease_edges, "border": st.border_edges, "nonmanifold": st.nonmanifold_edges },
             "degenerate_skipped": st.degenerate_skipped,
+            "largest_deviation": largest_deviation(&s).map(|(r, m, t)| serde_json::json!({ "ratio": r, "object": s.meshes[m].name, "triangle": t })),
             "duplicates_dropped": st.duplicates_dropped,
             "bounds": [lo.to_array(), hi.to_array()],
             "meshes": s.meshes.iter().map(|m| serde_json::json!({
@@ -1231,6 +1252,13 @@ fn info_cmd(args: InfoArgs) -> anyhow::Result<()> {
         println!("dropped: {} duplicate triangles", st.duplicates_dropped);
     }
     println!("bounds: [{:.6}, {:.6}, {:.6}] .. [{:.6}, {:.6}, {:.6}]", lo.x, lo.y, lo.z, hi.x, hi.y, hi.z);
+    if let Some((ratio, mesh, tri)) = largest_deviation(&s) {
+        println!(
+            "deviation: largest patch offset from its flat triangle {ratio:.4} × the triangle's width (smallest altitude; alpha {}, object {:?}, triangle {tri})",
+            phongrt::phong::DEFAULT_ALPHA,
+            s.meshes[mesh].name
+        );
+    }
     for m in &s.meshes {
         println!(
             "  object {:?}: {} vertices, {} triangles, normals {:?}",
