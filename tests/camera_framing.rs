@@ -7,8 +7,8 @@ use std::path::Path;
 use glam::Vec3;
 use phongrt::embree::{Device, Ray};
 use phongrt::scene::{load_obj, LoadOptions};
-use phongrt_cli::render::camera::default_view;
-use phongrt_cli::render::{Camera, ObjectMode, ObjectSettings, World};
+use phongrt_render::camera::default_view;
+use phongrt_render::{Camera, ObjectMode, ObjectSettings, World};
 
 /// The corpus folder: $PHONGRT_CORPUS, else ../shared/corpus beside the project.
 fn corpus() -> std::path::PathBuf {

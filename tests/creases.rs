@@ -143,7 +143,7 @@ fn corpus_closed_models_leak_nothing() {
 
 #[test]
 fn rendered_cylinder_shows_no_background_inside_its_silhouette() {
-    use phongrt_cli::render::{render, Camera, ObjectMode, ObjectSettings, RenderSettings, World};
+    use phongrt_render::{render, Camera, ObjectMode, ObjectSettings, RenderSettings, World};
     let device = Device::new().unwrap();
     let text = cylinder_obj(16);
     let scene =

@@ -7,8 +7,8 @@ use assert_cmd::Command;
 use glam::Vec3;
 use phongrt::embree::Device;
 use phongrt::scene::{uv_sphere, Scene};
-use phongrt_cli::render::texture::Texture;
-use phongrt_cli::render::{
+use phongrt_render::texture::Texture;
+use phongrt_render::{
     render, Camera, Environment, EnvironmentSource, ObjectMode, ObjectSettings, RenderSettings, Surface,
     World,
 };
@@ -24,7 +24,7 @@ fn world(device: &Device) -> World {
     w
 }
 
-fn shot(w: &World) -> phongrt_cli::render::RenderOutput {
+fn shot(w: &World) -> phongrt_render::RenderOutput {
     let cam = Camera { eye: Vec3::new(0.0, 0.0, 4.0), look_at: Vec3::ZERO, up: Vec3::Y, fov_y_deg: 40.0 };
     let s = RenderSettings {
         width: 32,

@@ -17,8 +17,8 @@ use std::time::{Duration, Instant};
 
 use phongrt::embree::Device;
 use phongrt::scene::{load_obj, load_obj_text, LoadOptions};
-use phongrt_cli::render::scene_file::SceneFile;
-use phongrt_cli::render::{render, Camera, ObjectMode, ObjectSettings, RenderSettings, World};
+use phongrt_render::scene_file::SceneFile;
+use phongrt_render::{render, Camera, ObjectMode, ObjectSettings, RenderSettings, World};
 
 /// splitmix64: small, seeded, the same sequence everywhere.
 struct Rng(u64);

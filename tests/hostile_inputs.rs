@@ -8,7 +8,7 @@ use std::process::Command;
 use std::time::Duration;
 
 use phongrt::scene::{load_obj, LoadOptions, Scene, SceneError};
-use phongrt_cli::render::scene_file::SceneFile;
+use phongrt_render::scene_file::SceneFile;
 
 fn write(dir: &Path, name: &str, text: &str) -> PathBuf {
     let p = dir.join(name);

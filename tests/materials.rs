@@ -8,8 +8,8 @@ use std::path::Path;
 use glam::Vec3;
 use phongrt::embree::Device;
 use phongrt::scene::{uv_sphere, Material, Scene};
-use phongrt_cli::render::world::fresnel_dielectric;
-use phongrt_cli::render::{
+use phongrt_render::world::fresnel_dielectric;
+use phongrt_render::{
     render, Camera, Ground, Light, ObjectMode, ObjectSettings, RenderSettings, Surface, World,
 };
 

@@ -233,7 +233,7 @@ fn attach_phong_shares_the_mesh_with_the_caller_without_a_copy() {
 
 #[test]
 fn the_renderers_phong_objects_share_their_mesh_with_the_scene() {
-    use phongrt_cli::render::{ObjectMode, ObjectSettings, World};
+    use phongrt_render::{ObjectMode, ObjectSettings, World};
     let device = Device::new().unwrap();
     let scene = phongrt::scene::Scene::from_mesh(uv_sphere(12, 6, 1.0));
     let world = World::from_scene(&device, &scene, |_, _| ObjectSettings {

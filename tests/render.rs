@@ -8,10 +8,8 @@ use std::path::Path;
 use glam::Vec3;
 use phongrt::embree::Device;
 use phongrt::scene::{uv_sphere, Material, Scene};
-use phongrt_cli::render::scene_file::SceneFile;
-use phongrt_cli::render::{
-    render, Camera, Light, ObjectMode, ObjectSettings, RenderSettings, SurfaceMode, World,
-};
+use phongrt_render::scene_file::SceneFile;
+use phongrt_render::{render, Camera, Light, ObjectMode, ObjectSettings, RenderSettings, SurfaceMode, World};
 
 fn settings(w: u32, threads: Option<usize>) -> RenderSettings {
     RenderSettings { width: w, height: w, spp: 1, threads, progress: false, seed: 0, packets: true }
@@ -130,7 +128,7 @@ fn effects_not_called_for_cost_zero_rays() {
     assert!(world.effects().to_string().contains("shadows (1 lights)"));
 
     // A mirror material: reflection rays appear, and only then.
-    world.objects[0].surface = phongrt_cli::render::Surface::from_material(&Material {
+    world.objects[0].surface = phongrt_render::Surface::from_material(&Material {
         illum: Some(3),
         ks: Vec3::splat(0.5),
         ..Material::default()
@@ -138,11 +136,8 @@ fn effects_not_called_for_cost_zero_rays() {
     let out = render(&world, &camera(), &settings(64, Some(1))).unwrap();
     assert!(out.rays.reflection > 0 && out.rays.refraction == 0);
     // Glass: refraction.
-    world.objects[0].surface = phongrt_cli::render::Surface::from_material(&Material {
-        dissolve: 0.2,
-        ni: 1.5,
-        ..Material::default()
-    });
+    world.objects[0].surface =
+        phongrt_render::Surface::from_material(&Material { dissolve: 0.2, ni: 1.5, ..Material::default() });
     let out = render(&world, &camera(), &settings(64, Some(1))).unwrap();
     // Glass refracts and, by Fresnel, reflects.
     assert!(out.rays.refraction > 0 && out.rays.reflection > 0);

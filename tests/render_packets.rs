@@ -9,7 +9,7 @@ use assert_cmd::Command;
 use glam::Vec3;
 use phongrt::embree::Device;
 use phongrt::scene::{load_obj, uv_sphere, LoadOptions, Material, Scene};
-use phongrt_cli::render::{
+use phongrt_render::{
     render_extent, AmbientOcclusion, Camera, Ground, Light, ObjectMode, ObjectSettings, RenderExtent,
     RenderOutput, RenderSettings, Surface, Window, World,
 };
@@ -175,7 +175,7 @@ fn a_bad_packets_value_is_refused_naming_the_flag() {
 #[test]
 fn shade8_answers_each_shaded_lane_as_shade_does() {
     use phongrt::embree::{Ray, PACKET8};
-    use phongrt_cli::render::{RayCounts, Rng};
+    use phongrt_render::{RayCounts, Rng};
     let device = Device::new().unwrap();
     let world = busy_world(&device);
     let frame = camera().frame(1.0).unwrap();

@@ -12,8 +12,8 @@ use glam::Vec3;
 use phongrt::embree::{Device, Ray};
 use phongrt::phong::{ShadingNormal, DEFAULT_ALPHA};
 use phongrt::scene::{load_obj, LoadOptions, Mesh, Scene};
-use phongrt_cli::render::world::SurfacePoint;
-use phongrt_cli::render::{
+use phongrt_render::world::SurfacePoint;
+use phongrt_render::{
     render, Camera, Ground, Light, ObjectMode, ObjectSettings, RayCounts, RenderSettings, Surface,
     Terminator, World,
 };

@@ -7,8 +7,8 @@ use std::path::Path;
 use glam::{Vec2, Vec3};
 use phongrt::embree::Device;
 use phongrt::scene::{load_obj, LoadOptions};
-use phongrt_cli::render::texture::{srgb_to_linear, Texture};
-use phongrt_cli::render::{render, Camera, Light, ObjectMode, ObjectSettings, RenderSettings, World};
+use phongrt_render::texture::{srgb_to_linear, Texture};
+use phongrt_render::{render, Camera, Light, ObjectMode, ObjectSettings, RenderSettings, World};
 
 #[test]
 fn bilinear_lookup_wraps_and_hits_texel_centres() {
@@ -62,7 +62,7 @@ fn png_2x2() -> Vec<u8> {
     out.into_inner()
 }
 
-fn render_quad(obj: &Path) -> (phongrt_cli::render::RenderOutput, World) {
+fn render_quad(obj: &Path) -> (phongrt_render::RenderOutput, World) {
     let scene = load_obj(obj, &LoadOptions::default()).unwrap();
     let device = Device::new().unwrap();
     let mut world =

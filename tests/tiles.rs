@@ -236,10 +236,10 @@ fn stats_json_counts_rays_by_kind_with_stage_times_and_effects() {
 
 #[test]
 fn image_errors_are_typed_one_line_and_name_the_file() {
-    use phongrt_cli::render::image_out::{
+    use phongrt_render::image_out::{
         check_writable, encode, read_tile, write_atomically, EncodeOptions, ImageError, ImageFormat,
     };
-    use phongrt_cli::render::Image;
+    use phongrt_render::Image;
     use std::error::Error;
     let dir = tempfile::tempdir().unwrap();
     let d = dir.path();

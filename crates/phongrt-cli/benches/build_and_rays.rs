@@ -11,7 +11,7 @@ use phongrt::embree::{
 };
 use phongrt::scene::{load_obj, uv_sphere, LoadOptions, Mesh};
 use phongrt_cli::bench::median;
-use phongrt_cli::render::Camera;
+use phongrt_render::Camera;
 
 fn build(device: &Device, m: &Mesh, phong: bool) -> (Scene, f64, i64, usize) {
     let before = device.memory_bytes().0;

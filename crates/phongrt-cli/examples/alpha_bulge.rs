@@ -13,7 +13,7 @@ use std::path::Path;
 use glam::Vec3;
 use phongrt::embree::{Device, Ray};
 use phongrt::scene::{load_obj, LoadOptions, Scene};
-use phongrt_cli::render::{Camera, ObjectMode, ObjectSettings, World};
+use phongrt_render::{Camera, ObjectMode, ObjectSettings, World};
 
 const SIZE: u32 = 400;
 

@@ -6,13 +6,13 @@ use std::time::Instant;
 use glam::Vec3;
 use rayon::prelude::*;
 
-use crate::render::Camera;
 use phongrt::embree::{
     patch_prim_hit, Device, EmbreeError, GeometryOptions, PhongMesh, PhongMeshError, PrimHit, Ray, Scene,
     UserGeometryOptions, UserPrimitives, UserTriangles, PACKET8,
 };
 use phongrt::phong::{control_points, intersect, Method, Patch, V3};
 use phongrt::scene::Mesh;
+use phongrt_render::Camera;
 
 /// The ways of rendering a smooth surface from a low-poly mesh.
 #[derive(Clone, Copy, Debug, PartialEq, Eq, Hash)]
@@ -328,8 +328,8 @@ fn build(device: &Device, m: &Mesh, method: BenchMethod, robust: bool) -> Result
 /// The origin is offset by the hit point's error bound along the normal (pbrt-v4's
 /// OffsetRayOrigin with the renderer's fallback bound for `o + t d`).
 pub fn shadow_ray(ray: &Ray, h: &phongrt::embree::Hit, light: Vec3) -> Option<(Ray, f32)> {
-    use crate::render::world::SurfacePoint;
     use phongrt::phong::Real;
+    use phongrt_render::world::SurfacePoint;
     let mut n = h.ng.try_normalize()?;
     if n.dot(ray.dir) > 0.0 {
         n = -n;
@@ -344,26 +344,26 @@ pub fn shadow_ray(ray: &Ray, h: &phongrt::embree::Hit, light: Vec3) -> Option<(R
         ng: n,
         n,
         entering: true,
-        terminator: crate::render::Terminator::Plain,
+        terminator: phongrt_render::Terminator::Plain,
         lift: Vec3::ZERO,
     };
     Some((Ray::new(sp.offset_origin(light), light), cos))
 }
 
 /// The directional light of the bench's shaded render: above, left and behind the camera.
-pub fn bench_light(frame: &crate::render::CameraFrame) -> Vec3 {
+pub fn bench_light(frame: &phongrt_render::CameraFrame) -> Vec3 {
     (frame.up.normalize_or_zero() * 0.8 - frame.right.normalize_or_zero() * 0.5 - frame.forward * 0.6)
         .normalize()
 }
 
 /// The shaded render of `shaded_ms`: returns the summed radiance (so the work is not optimised
 /// away, and as a cross-check between methods).
-fn shaded(scene: &Scene, frame: &crate::render::CameraFrame, width: u32, height: u32, light: Vec3) -> f64 {
+fn shaded(scene: &Scene, frame: &phongrt_render::CameraFrame, width: u32, height: u32, light: Vec3) -> f64 {
     let row = |y: u32| -> f64 {
         let mut sum = 0.0f64;
         for x in 0..width {
             for s in 0..SHADED_SPP {
-                let (ox, oy) = crate::render::sample_offset(x, y, s, SHADED_SPP, 0);
+                let (ox, oy) = phongrt_render::sample_offset(x, y, s, SHADED_SPP, 0);
                 let ray = Ray::new(frame.eye, frame.direction(x as f32 + ox, y as f32 + oy, width, height));
                 let Some(h) = scene.intersect1(ray) else { continue };
                 let Some((shadow, cos)) = shadow_ray(&ray, &h, light) else { continue };
@@ -410,7 +410,7 @@ fn depth_packets(scene: &Scene, rays: &[Ray], width: u32, height: u32) -> Vec<Op
 /// lanes hit and are lit, so the sum is `shaded`'s up to summation order.
 fn shaded_packets(
     scene: &Scene,
-    frame: &crate::render::CameraFrame,
+    frame: &phongrt_render::CameraFrame,
     width: u32,
     height: u32,
     light: Vec3,
@@ -422,7 +422,7 @@ fn shaded_packets(
             for s in 0..SHADED_SPP {
                 let rays: [Ray; PACKET8] = std::array::from_fn(|k| {
                     let (x, y) = (bx + k as u32 % 4, by + k as u32 / 4);
-                    let (ox, oy) = crate::render::sample_offset(x, y, s, SHADED_SPP, 0);
+                    let (ox, oy) = phongrt_render::sample_offset(x, y, s, SHADED_SPP, 0);
                     Ray::new(frame.eye, frame.direction(x as f32 + ox, y as f32 + oy, width, height))
                 });
                 let hits = scene.intersect8_rays(&rays, active, true);
@@ -482,7 +482,7 @@ pub fn primary_rays(
     m: &Mesh,
     width: u32,
     height: u32,
-) -> Result<(crate::render::CameraFrame, Vec<Ray>), BenchError> {
+) -> Result<(phongrt_render::CameraFrame, Vec<Ray>), BenchError> {
     let (lo, hi) = m
         .positions
         .iter()
@@ -886,7 +886,7 @@ fn register_plot_font() -> Result<(), PlotError> {
     plotters::style::register_font(
         "sans-serif",
         plotters::style::FontStyle::Normal,
-        crate::render::text::DEJAVU_SANS,
+        phongrt_render::text::DEJAVU_SANS,
     )
     .map_err(|_| PlotError::Font)
 }

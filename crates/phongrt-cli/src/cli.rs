@@ -4,7 +4,7 @@ use std::path::PathBuf;
 
 use clap::{Args, Parser, Subcommand};
 use glam::Vec3;
-use phongrt_cli::render::SurfaceMode;
+use phongrt_render::SurfaceMode;
 
 /// Ray-trace Phong Tessellation directly, as an Embree 4 user geometry.
 ///
@@ -102,7 +102,7 @@ pub struct RenderArgs {
     /// Terminator of Phong surfaces: lift (shadow rays from Hanika's lifted origin), plain (from the
     /// true surface), or band (the former true-normal band, for comparison) [default: lift].
     #[arg(long, value_parser = parse_terminator)]
-    pub terminator: Option<phongrt_cli::render::Terminator>,
+    pub terminator: Option<phongrt_render::Terminator>,
     /// A ground plane under the scene (perpendicular to the camera's up), receiving its shadows.
     #[arg(long)]
     pub ground: bool,
@@ -229,8 +229,8 @@ pub fn parse_shading(s: &str) -> Result<phongrt::phong::ShadingNormal, String> {
 }
 
 /// Parse a terminator rule name.
-pub fn parse_terminator(s: &str) -> Result<phongrt_cli::render::Terminator, String> {
-    use phongrt_cli::render::Terminator;
+pub fn parse_terminator(s: &str) -> Result<phongrt_render::Terminator, String> {
+    use phongrt_render::Terminator;
     Terminator::from_name(s).ok_or_else(|| {
         let names: Vec<&str> = Terminator::ALL.iter().map(|r| r.name()).collect();
         format!("{s:?} is not one of {}", names.join(", "))

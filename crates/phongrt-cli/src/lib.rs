@@ -1,6 +1,5 @@
-//! The `phongrt` command's pieces: a thin renderer on top of Embree (a world of flat or Phong
-//! objects, camera, lights, scene files, images) and the `phongrt bench` measurements. The
-//! curved primitive itself is the [`phongrt`] library.
+//! The `phongrt` command's pieces: the `phongrt bench` and `phongrt profile` measurements. The
+//! renderer is the [`phongrt_render`] crate, the curved primitive itself the [`phongrt`] library.
 
 // Comparisons written `!(x > 0.0)` are deliberate throughout: they are true for NaN, which is
 // how bad input is turned away without a separate NaN test.
@@ -8,4 +7,3 @@
 
 pub mod bench;
 pub mod profile;
-pub mod render;

@@ -14,11 +14,11 @@ use glam::Vec3;
 use cli::{Cli, Command, InfoArgs, LoadArgs, RenderArgs, StitchArgs};
 use phongrt::embree::{self, Device};
 use phongrt::scene::{self, LoadOptions};
-use phongrt_cli::render::image_out::{self, EncodeOptions, ImageFormat, Tile, TilePixels};
-use phongrt_cli::render::scene_file::{self, LightSection, SceneFile};
-use phongrt_cli::render::{
-    self, AmbientOcclusion, Camera, Image, Light, ObjectMode, ObjectSettings, RenderExtent, RenderOutput,
-    RenderSettings, SurfaceMode, Window, World,
+use phongrt_render::image_out::{self, EncodeOptions, ImageFormat, Tile, TilePixels};
+use phongrt_render::scene_file::{self, LightSection, SceneFile};
+use phongrt_render::{
+    self as render, AmbientOcclusion, Camera, Image, Light, ObjectMode, ObjectSettings, RenderExtent,
+    RenderOutput, RenderSettings, SurfaceMode, Window, World,
 };
 
 /// A mistake on the command line (a flag or its value): exit status 2. Everything else (an

@@ -1,6 +1,10 @@
 //! A thin renderer on top of Embree: a world of flat or Phong objects, a camera, lights,
 //! tiles rendered in parallel with rayon, deterministic whatever the thread count.
 
+// Comparisons written `!(x > 0.0)` are deliberate throughout: they are true for NaN, which is
+// how bad input is turned away without a separate NaN test.
+#![allow(clippy::neg_cmp_op_on_partial_ord, clippy::nonminimal_bool)]
+
 pub mod camera;
 pub mod image_out;
 pub mod scene_file;

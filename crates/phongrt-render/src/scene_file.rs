@@ -403,7 +403,7 @@ impl Checker<'_> {
             }
         }
         if let Some(s) = &r.terminator {
-            if crate::render::Terminator::from_name(s).is_none() {
+            if crate::Terminator::from_name(s).is_none() {
                 return Err(self.bad("render.terminator".into(), format!("{s:?} is not lift, plain or band")));
             }
         }

@@ -7,7 +7,7 @@ use glam::Vec3;
 use super::Image;
 
 /// DejaVu Sans (Debian's fonts-dejavu-core), used for labels and bench plots.
-pub static DEJAVU_SANS: &[u8] = include_bytes!("../../assets/fonts/DejaVuSans.ttf");
+pub static DEJAVU_SANS: &[u8] = include_bytes!("../assets/fonts/DejaVuSans.ttf");
 
 fn font() -> FontRef<'static> {
     // The embedded font is a valid TrueType file; a test parses it.
