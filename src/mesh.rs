@@ -132,6 +132,110 @@ pub fn straight_edges(edge_kinds: &[[EdgeKind; 3]]) -> Vec<[bool; 3]> {
     edge_kinds.iter().map(|k| k.map(|e| e != EdgeKind::Smooth)).collect()
 }
 
+/// The default angle (radians) within which two unit normals at one position count as the same
+/// normal ([`NormalSnap`]): normals that differ only by rounding (a sin/cos sphere's poles and
+/// seam, `-0` against `0`) must not make a crease.
+pub const NORMAL_TOLERANCE: f32 = 1e-4;
+
+/// Makes nearly equal normals at a position equal, bit for bit: per welded position, the first
+/// normal seen within the tolerance angle of a later one stands for both. With a tolerance of 0
+/// normals are compared bit for bit (the rule before the tolerance, `-0` and `0` distinct).
+#[derive(Debug, Default)]
+pub struct NormalSnap {
+    /// `sin` of the tolerance angle; `None` for bit-for-bit comparison.
+    sin_tol: Option<f64>,
+    seen: HashMap<u32, Vec<Vec3>>,
+}
+
+impl NormalSnap {
+    /// Normals within `tol` radians (clamped to [0, 0.1]) count as equal; 0 compares bit for bit.
+    pub fn new(tol: f32) -> NormalSnap {
+        let tol = if tol.is_finite() { tol.clamp(0.0, 0.1) } else { 0.0 };
+        NormalSnap { sin_tol: (tol > 0.0).then(|| (tol as f64).sin()), seen: HashMap::new() }
+    }
+
+    /// The normal to use for unit normal `n` at welded position `pid`: an earlier one at `pid`
+    /// within the tolerance, else `n` itself (with `-0` components made `+0`).
+    pub fn snap(&mut self, pid: u32, n: Vec3) -> Vec3 {
+        let Some(sin_tol) = self.sin_tol else { return n };
+        let n = n + Vec3::ZERO; // -0 + 0 = +0
+        let list = self.seen.entry(pid).or_default();
+        // Compare in f64: the sine of the angle between them, on the same side.
+        let close = |m: &Vec3| {
+            let (a, b) = (m.as_dvec3(), n.as_dvec3());
+            a.dot(b) > 0.0 && a.cross(b).length() <= sin_tol * a.length() * b.length()
+        };
+        if let Some(m) = list.iter().find(|m| close(m)) {
+            return *m;
+        }
+        list.push(n);
+        n
+    }
+}
+
+/// Per triangle: whether it repeats an earlier triangle's three welded positions, in either
+/// winding (such a copy makes every edge it shares non-manifold, and so straight).
+pub fn duplicate_triangles(position_triples: impl IntoIterator<Item = [u32; 3]>) -> Vec<bool> {
+    let mut seen: std::collections::HashSet<[u32; 3]> = Default::default();
+    position_triples
+        .into_iter()
+        .map(|mut t| {
+            t.sort_unstable();
+            !seen.insert(t)
+        })
+        .collect()
+}
+
+/// The largest offset of a Phong patch from its flat triangle, relative to the triangle's width
+/// (its smallest altitude, `2 · area / longest edge`), over a mesh: `(ratio, triangle)`, or
+/// `None` for a mesh with no triangle of non-zero area. A balloon (a sliver's patch swollen far
+/// off its triangle by wild normals) shows as a ratio of several; a smooth low-poly sphere's
+/// patches stand a fraction of their width off theirs.
+///
+/// The patch minus its triangle is the quadratic `Σ 2 w_i w_j (c_ij − m_ij)` over the edges, with
+/// `c_ij` the edge's control point and `m_ij` its midpoint; its length is taken on a grid of
+/// 231 points `(u, v)` (steps of 1/20), so the figure is a close lower bound.
+pub fn max_patch_deviation(
+    positions: &[Vec3],
+    normals: &[Vec3],
+    indices: &[[u32; 3]],
+    straight: &[[bool; 3]],
+    alpha: f64,
+) -> Option<(f64, usize)> {
+    use crate::phong::V3;
+    const STEPS: usize = 20;
+    let mut best: Option<(f64, usize)> = None;
+    for (t, tri) in indices.iter().enumerate() {
+        // Compute the edges' control-point offsets from their midpoints.
+        let p = tri.map(|i| V3::from(positions[i as usize].as_dvec3()));
+        let n = tri.map(|i| V3::from(normals[i as usize].as_dvec3()));
+        let st = straight.get(t).copied().unwrap_or([false; 3]);
+        let c = crate::phong::control_points(p, n, alpha, st);
+        let d = [(c[3] - (p[0] + p[1]) * 0.5), (c[4] - (p[1] + p[2]) * 0.5), (c[5] - (p[2] + p[0]) * 0.5)];
+        let longest = (p[1] - p[0]).length().max((p[2] - p[1]).length()).max((p[0] - p[2]).length());
+        let size = (p[1] - p[0]).cross(p[2] - p[0]).length() / longest;
+        if !(size > 0.0) {
+            continue;
+        }
+        // Compute the largest offset on the grid (w = barycentric weights of corners 0, 1, 2).
+        let mut worst = 0.0f64;
+        for i in 0..=STEPS {
+            for j in 0..=STEPS - i {
+                let w =
+                    [i as f64 / STEPS as f64, j as f64 / STEPS as f64, (STEPS - i - j) as f64 / STEPS as f64];
+                let off =
+                    d[0] * (2.0 * w[0] * w[1]) + d[1] * (2.0 * w[1] * w[2]) + d[2] * (2.0 * w[2] * w[0]);
+                worst = worst.max(off.length());
+            }
+        }
+        let ratio = worst / size;
+        if ratio.is_finite() && best.is_none_or(|(b, _)| ratio > b) {
+            best = Some((ratio, t));
+        }
+    }
+    best
+}
+
 /// The default welding tolerance of [`prepare`], relative to the diagonal of the bounds of the
 /// positions the triangles use (the OBJ loader's default too).
 pub const WELD_TOLERANCE: f32 = 1e-6;
@@ -167,8 +271,8 @@ impl Prepared {
 ///    positions (capped per vertex by [`weld_caps`]); welded corners take the first position of
 ///    their cluster, bit for bit;
 /// 2. make one vertex per (welded position, unit normal): corners that share a position and a
-///    normal share a vertex, whatever the caller's indexing (a triangle soup too), and all of
-///    them get that normal bit for bit;
+///    normal (within [`NORMAL_TOLERANCE`] radians, see [`NormalSnap`]) share a vertex, whatever
+///    the caller's indexing (a triangle soup too), and all of them get that normal bit for bit;
 /// 3. classify the edges ([`classify_edges`]): an edge is smooth where both of its ends share
 ///    vertices with the neighbour's, a crease where they share only positions.
 ///
@@ -199,11 +303,13 @@ pub fn prepare(positions: &[Vec3], normals: &[Vec3], indices: &[[u32; 3]], weld_
         edge_kinds: Vec::new(),
     };
     let mut renumber: HashMap<u32, u32> = HashMap::new();
+    let mut snap = NormalSnap::new(NORMAL_TOLERANCE);
     for tri in indices {
         let t = tri.map(|i| {
             let p = pid[i as usize];
             // In f64: a tiny f32 normal has no f64 length underflow.
             let n = normals[i as usize].as_dvec3().normalize_or_zero().as_vec3();
+            let n = snap.snap(p, n);
             let key = (p, n.to_array().map(f32::to_bits));
             *vmap.entry(key).or_insert_with(|| {
                 out.positions.push(positions[p as usize]);
@@ -254,6 +360,34 @@ mod tests {
         assert_eq!(m.positions.len(), 5);
         assert_eq!(m.edge_kinds[0][2], EdgeKind::Crease);
         assert_eq!(m.edge_kinds[1][0], EdgeKind::Crease);
+    }
+
+    /// A triangle `(0,0,0), (L,0,0), (0,W,0)` whose corner normals lean out by 20° in the plane.
+    fn leaning(l: f32, w: f32) -> (Vec<Vec3>, Vec<Vec3>, Vec<[u32; 3]>) {
+        let (s, c) = 20f32.to_radians().sin_cos();
+        let p = vec![Vec3::ZERO, Vec3::new(l, 0.0, 0.0), Vec3::new(0.0, w, 0.0)];
+        let n = vec![Vec3::new(-s, -s, c).normalize(), Vec3::new(s, 0.0, c), Vec3::new(0.0, s, c)];
+        (p, n, vec![[0, 1, 2]])
+    }
+
+    #[test]
+    fn a_flat_patch_and_straight_edges_deviate_nothing() {
+        let (p, _, i) = leaning(1.0, 1.0);
+        let flat = max_patch_deviation(&p, &[Vec3::Z; 3], &i, &[], 0.75).unwrap();
+        assert_eq!(flat, (0.0, 0));
+        let (p, n, i) = leaning(1.0, 1.0);
+        let straight = max_patch_deviation(&p, &n, &i, &[[true; 3]], 0.75).unwrap();
+        assert_eq!(straight, (0.0, 0));
+    }
+
+    #[test]
+    fn a_sliver_with_leaning_normals_deviates_by_many_widths() {
+        let (p, n, i) = leaning(1.0, 1.0);
+        let wide = max_patch_deviation(&p, &n, &i, &[], 0.75).unwrap().0;
+        let (p, n, i) = leaning(100.0, 1.0);
+        let sliver = max_patch_deviation(&p, &n, &i, &[], 0.75).unwrap().0;
+        assert!(wide > 0.01 && wide < 0.5, "{wide}");
+        assert!(sliver > 5.0, "{sliver}");
     }
 
     #[test]

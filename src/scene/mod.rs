@@ -317,6 +317,8 @@ pub struct LoadStats {
     pub degenerate_skipped: usize,
     /// File normals of zero length (or not normalisable) that were replaced by computed ones.
     pub zero_normals_replaced: usize,
+    /// Triangles dropped as duplicates of another (same welded positions, either winding).
+    pub duplicates_dropped: usize,
 }
 
 /// A loaded scene.
@@ -343,11 +345,22 @@ pub struct LoadOptions {
     pub crease_angle_deg: f32,
     /// Welding tolerance, relative to the bounding-box diagonal.
     pub weld_tolerance: f32,
+    /// Normals at one position within this angle (radians) are the same normal, so the edges
+    /// between them are smooth ([`crate::mesh::NormalSnap`]); 0 compares them bit for bit.
+    pub normal_tolerance_rad: f32,
+    /// Drop triangles that repeat an earlier one's three welded positions (either winding),
+    /// with a warning; `false` keeps them (and their non-manifold edges).
+    pub drop_duplicate_faces: bool,
 }
 
 impl Default for LoadOptions {
     fn default() -> Self {
-        LoadOptions { crease_angle_deg: 30.0, weld_tolerance: 1e-6 }
+        LoadOptions {
+            crease_angle_deg: 30.0,
+            weld_tolerance: 1e-6,
+            normal_tolerance_rad: crate::mesh::NORMAL_TOLERANCE,
+            drop_duplicate_faces: true,
+        }
     }
 }
 
@@ -384,6 +397,7 @@ impl Scene {
         let mut st = LoadStats {
             degenerate_skipped: self.stats.degenerate_skipped,
             zero_normals_replaced: self.stats.zero_normals_replaced,
+            duplicates_dropped: self.stats.duplicates_dropped,
             ..Default::default()
         };
         for m in &self.meshes {
@@ -446,6 +460,7 @@ pub fn load_obj_text(text: &str, path: &Path, opts: &LoadOptions) -> Result<Scen
     let mut stats = LoadStats::default();
     let (meshes, undefined) = build_meshes(&raw, &materials, tol, opts, &mut stats);
     warn_built_meshes(&meshes, &undefined, &stats, &name, &mut warnings);
+    warnings.extend(crease_warning(&meshes, opts, &name));
     if meshes.is_empty() {
         let detail = if raw.faces.is_empty() {
             format!(" ({} vertices, no faces)", raw.positions.len())
@@ -652,6 +667,61 @@ fn warn_built_meshes(
             stats.zero_normals_replaced
         ));
     }
+    if stats.duplicates_dropped > 0 {
+        warnings.push(format!(
+            "{name}: dropped {} duplicate triangles (the same three positions as another)",
+            stats.duplicates_dropped
+        ));
+    }
+}
+
+/// A warning when many edges of the meshes whose normals were computed are creases that are
+/// not hard edges (their faces meet at less than [`SOFT_CREASE_DEG`]): more than a quarter of
+/// the shared edges. The model then renders about as faceted as flat, and a larger
+/// `--crease-angle` would smooth it. A box or a capped cylinder (creases of 90°) gets none.
+fn crease_warning(meshes: &[Mesh], opts: &LoadOptions, name: &str) -> Option<String> {
+    let (mut soft, mut shared) = (0usize, 0usize);
+    for m in meshes.iter().filter(|m| m.normals_source != NormalsSource::FromFile) {
+        let (s, n) = soft_creases(m);
+        soft += s;
+        shared += n;
+    }
+    (shared > 0 && 4 * soft > shared).then(|| {
+        format!(
+            "{name}: {soft} of the {shared} edges with computed normals are creases under {SOFT_CREASE_DEG}° at the {}° crease angle, so the model looks faceted; try a larger --crease-angle (e.g. 60)",
+            opts.crease_angle_deg
+        )
+    })
+}
+
+/// Creases whose faces meet at less than this (degrees) count as soft in [`crease_warning`].
+const SOFT_CREASE_DEG: f32 = 80.0;
+
+/// A mesh's crease edges whose two faces' normals differ by less than [`SOFT_CREASE_DEG`], and
+/// its shared (smooth or crease) edges, each edge counted once.
+fn soft_creases(m: &Mesh) -> (usize, usize) {
+    let face_normal = |t: usize| {
+        let [a, b, c] = m.indices[t].map(|i| m.positions[i as usize].as_dvec3());
+        (b - a).cross(c - a).normalize_or_zero()
+    };
+    let mut creases: HashMap<(u32, u32), Vec<usize>> = HashMap::new();
+    let mut shared = 0;
+    for (t, kinds) in m.edge_kinds.iter().enumerate() {
+        for (k, kind) in kinds.iter().enumerate() {
+            shared += matches!(kind, EdgeKind::Crease | EdgeKind::Smooth) as usize;
+            if *kind == EdgeKind::Crease {
+                let tri = m.indices[t];
+                let (a, b) = (m.position_ids[tri[k] as usize], m.position_ids[tri[(k + 1) % 3] as usize]);
+                creases.entry((a.min(b), a.max(b))).or_default().push(t);
+            }
+        }
+    }
+    let cos_soft = (SOFT_CREASE_DEG as f64).to_radians().cos();
+    let soft = creases
+        .values()
+        .filter(|f| f.len() == 2 && face_normal(f[0]).dot(face_normal(f[1])) > cos_soft)
+        .count();
+    (soft, shared / 2)
 }
 
 fn angle_at(a: Vec3, b: Vec3, c: Vec3) -> f32 {
@@ -676,14 +746,17 @@ fn build_mesh(
     // Weld the positions this mesh uses.
     let welded = WeldedPositions::new(raw, &tri_corners, tol);
     // Keep the non-degenerate triangles, with their file normals and texture coordinates.
-    let tris = welded_triangles(raw, &welded, &tri_corners, &tri_smooth, stats);
+    let mut tris = welded_triangles(raw, &welded, &tri_corners, &tri_smooth, stats);
+    if opts.drop_duplicate_faces {
+        drop_duplicate_triangles(&mut tris, stats);
+    }
     if tris.is_empty() {
         return None;
     }
     // Compute a normal for every corner (used where the file gives none).
     let computed = ComputedNormals::new(&tris, &welded.positions, opts);
     // Make the output vertices: one per (position, normal).
-    let out = output_vertices(&tris, &welded.positions, &computed);
+    let out = output_vertices(&tris, &welded.positions, &computed, opts.normal_tolerance_rad);
     stats.normals_from_file += out.from_file;
     stats.normals_computed += out.computed;
 
@@ -823,6 +896,18 @@ fn welded_triangles(
     tris
 }
 
+/// Drop the triangles that repeat an earlier one's welded positions (counted in
+/// `stats.duplicates_dropped`; see [`crate::mesh::duplicate_triangles`]).
+fn drop_duplicate_triangles(tris: &mut Vec<Tri>, stats: &mut LoadStats) {
+    let dup = crate::mesh::duplicate_triangles(tris.iter().map(|t| t.pid));
+    let mut k = 0;
+    tris.retain(|_| {
+        k += 1;
+        !dup[k - 1]
+    });
+    stats.duplicates_dropped += dup.iter().filter(|&&d| d).count();
+}
+
 /// Computed vertex normals per triangle corner: around each position, the angle-weighted mean
 /// of the face normals of the corners that join (same smoothing group, or within the crease
 /// angle), bit for bit the same for every corner of a cluster.
@@ -943,7 +1028,12 @@ struct OutputVertices {
 
 /// One output vertex per (welded position, normal): the file's normal where usable, else the
 /// computed one.
-fn output_vertices(tris: &[Tri], positions: &[Vec3], computed_normals: &ComputedNormals) -> OutputVertices {
+fn output_vertices(
+    tris: &[Tri],
+    positions: &[Vec3],
+    computed_normals: &ComputedNormals,
+    normal_tolerance: f32,
+) -> OutputVertices {
     let mut out = OutputVertices {
         positions: Vec::new(),
         normals: Vec::new(),
@@ -953,6 +1043,7 @@ fn output_vertices(tris: &[Tri], positions: &[Vec3], computed_normals: &Computed
         computed: 0,
     };
     let mut vmap: HashMap<(u32, [u32; 3]), u32> = HashMap::new();
+    let mut snap = crate::mesh::NormalSnap::new(normal_tolerance);
     for (ti, t) in tris.iter().enumerate() {
         let mut tri = [0u32; 3];
         for k in 0..3 {
@@ -960,6 +1051,7 @@ fn output_vertices(tris: &[Tri], positions: &[Vec3], computed_normals: &Computed
                 Some(n) => (n, true),
                 None => (computed_normals.at(ti, k), false),
             };
+            let n = snap.snap(t.pid[k], n);
             let key = (t.pid[k], n.to_array().map(f32::to_bits));
             tri[k] = *vmap.entry(key).or_insert_with(|| {
                 out.positions.push(positions[t.pid[k] as usize]);

@@ -22,7 +22,7 @@ pub struct Cli {
 pub enum Command {
     /// Render an OBJ file to a PNG (sRGB) or EXR (linear) image.
     #[command(after_help = RENDER_EXAMPLES)]
-    Render(RenderArgs),
+    Render(Box<RenderArgs>),
     /// Describe an OBJ file (objects, vertices, triangles, normals, bounds) and the Embree in use.
     Info(InfoArgs),
     /// Assemble tiles rendered with --tile I/N or --crop into one image, bit-identical to the
@@ -160,6 +160,14 @@ pub struct LoadArgs {
     /// Where a mesh has no normals, edges sharper than this (degrees) stay sharp.
     #[arg(long, default_value_t = 30.0)]
     pub crease_angle: f32,
+    /// Normals at one position within this angle (radians) count as one, so the edge between
+    /// them is smooth; 0 compares them bit for bit (the rule before, -0 and 0 distinct).
+    #[arg(long, default_value_t = phongrt::mesh::NORMAL_TOLERANCE)]
+    pub normal_tolerance: f32,
+    /// Keep triangles that repeat another's three positions (by default they are dropped with
+    /// a warning, as their edges would be non-manifold and straight).
+    #[arg(long)]
+    pub keep_duplicate_faces: bool,
 }
 
 #[derive(Args, Debug)]

@@ -11,7 +11,7 @@ use anyhow::{bail, Context};
 use clap::Parser;
 use glam::Vec3;
 
-use cli::{Cli, Command, InfoArgs, RenderArgs, StitchArgs};
+use cli::{Cli, Command, InfoArgs, LoadArgs, RenderArgs, StitchArgs};
 use phongrt::embree::{self, Device};
 use phongrt::scene::{self, LoadOptions};
 use phongrt_render::image_out::{self, EncodeOptions, ImageFormat, Tile, TilePixels};
@@ -97,7 +97,7 @@ fn one_line(e: &anyhow::Error) -> String {
 fn run(cli: Cli) -> anyhow::Result<()> {
     embree::set_flush_denormals();
     match cli.command {
-        Command::Render(args) => render_cmd(args),
+        Command::Render(args) => render_cmd(*args),
         Command::Info(args) => info_cmd(args),
         Command::Stitch(args) => stitch_cmd(args),
         Command::Bench(args) => bench_cmd(args),
@@ -142,11 +142,20 @@ fn check_obj_path(path: &Path) -> anyhow::Result<()> {
     Ok(())
 }
 
-fn load_options(crease_angle: f32) -> anyhow::Result<LoadOptions> {
+fn load_options(args: &LoadArgs, crease_angle: f32) -> anyhow::Result<LoadOptions> {
     if !(0.0..=180.0).contains(&crease_angle) {
         usage!("--crease-angle {crease_angle} is not in [0, 180] degrees");
     }
-    Ok(LoadOptions { crease_angle_deg: crease_angle, ..LoadOptions::default() })
+    let tol = args.normal_tolerance;
+    if !(0.0..=0.1).contains(&tol) {
+        usage!("--normal-tolerance {tol} is not in [0, 0.1] radians");
+    }
+    Ok(LoadOptions {
+        crease_angle_deg: crease_angle,
+        normal_tolerance_rad: tol,
+        drop_duplicate_faces: !args.keep_duplicate_faces,
+        ..LoadOptions::default()
+    })
 }
 
 fn load(path: &Path, opts: &LoadOptions) -> anyhow::Result<scene::Scene> {
@@ -577,7 +586,7 @@ impl RenderJob {
 
         // Load the mesh, and check the object names given for it.
         let crease = sf.and_then(|s| s.crease_angle).unwrap_or(args.load.crease_angle);
-        let input = load(&source.obj, &load_options(crease)?)?;
+        let input = load(&source.obj, &load_options(&args.load, crease)?)?;
         for (name, _) in &overrides {
             if !(name == "*" || input.meshes.iter().any(|m| m.name == *name)) {
                 usage!(
@@ -1177,8 +1186,28 @@ fn report(what: &str, out: &RenderOutput) {
     );
 }
 
+/// The largest patch offset from its flat triangle relative to the triangle's width, over the
+/// scene's meshes at the default alpha with straight creases: `(ratio, mesh, triangle)`.
+fn largest_deviation(s: &scene::Scene) -> Option<(f64, usize, usize)> {
+    let alpha = phongrt::phong::DEFAULT_ALPHA as f64;
+    s.meshes
+        .iter()
+        .enumerate()
+        .filter_map(|(k, m)| {
+            phongrt::mesh::max_patch_deviation(
+                &m.positions,
+                &m.normals,
+                &m.indices,
+                &m.straight_edges(),
+                alpha,
+            )
+            .map(|(r, t)| (r, k, t))
+        })
+        .max_by(|a, b| a.0.total_cmp(&b.0))
+}
+
 fn info_cmd(args: InfoArgs) -> anyhow::Result<()> {
-    let s = load(&args.scene, &load_options(args.load.crease_angle)?)?;
+    let s = load(&args.scene, &load_options(&args.load, args.load.crease_angle)?)?;
     let device = Device::new().context("cannot start Embree")?;
     let (major, minor, patch) = device.version();
     let st = &s.stats;
@@ -1194,6 +1223,8 @@ fn info_cmd(args: InfoArgs) -> anyhow::Result<()> {
             "normals": { "from_file": st.normals_from_file, "computed": st.normals_computed },
             "edges": { "smooth": st.smooth_edges, "crease": st.crease_edges, "border": st.border_edges, "nonmanifold": st.nonmanifold_edges },
             "degenerate_skipped": st.degenerate_skipped,
+            "largest_deviation": largest_deviation(&s).map(|(r, m, t)| serde_json::json!({ "ratio": r, "object": s.meshes[m].name, "triangle": t })),
+            "duplicates_dropped": st.duplicates_dropped,
             "bounds": [lo.to_array(), hi.to_array()],
             "meshes": s.meshes.iter().map(|m| serde_json::json!({
                 "name": m.name, "vertices": m.positions.len(), "triangles": m.indices.len(),
@@ -1217,7 +1248,17 @@ fn info_cmd(args: InfoArgs) -> anyhow::Result<()> {
     if st.degenerate_skipped > 0 {
         println!("skipped: {} degenerate triangles", st.degenerate_skipped);
     }
+    if st.duplicates_dropped > 0 {
+        println!("dropped: {} duplicate triangles", st.duplicates_dropped);
+    }
     println!("bounds: [{:.6}, {:.6}, {:.6}] .. [{:.6}, {:.6}, {:.6}]", lo.x, lo.y, lo.z, hi.x, hi.y, hi.z);
+    if let Some((ratio, mesh, tri)) = largest_deviation(&s) {
+        println!(
+            "deviation: largest patch offset from its flat triangle {ratio:.4} × the triangle's width (smallest altitude; alpha {}, object {:?}, triangle {tri})",
+            phongrt::phong::DEFAULT_ALPHA,
+            s.meshes[mesh].name
+        );
+    }
     for m in &s.meshes {
         println!(
             "  object {:?}: {} vertices, {} triangles, normals {:?}",
