@@ -6,8 +6,8 @@ use std::panic::{catch_unwind, AssertUnwindSafe};
 
 use glam::Vec3;
 
-use super::phong_geometry::PhongMesh;
 use super::user_geometry::{new_user_geometry, UserData, UserGeometryOptions};
+use crate::phong::mesh::PhongMesh;
 use crate::phong::ShadingNormal;
 use crate::sys;
 

@@ -15,7 +15,6 @@ pub use user_geometry::{PrimHit, UserGeometryOptions, UserPrimitives, UserTriang
 #[cfg(feature = "capi")]
 pub mod capi;
 pub mod phong_geometry;
-pub use phong_geometry::{
-    attach_phong_raw, patch_prim_hit, PatchTest, PhongMesh, PhongMeshBuilder, PhongMeshError,
-    RawPhongGeometry,
-};
+pub use phong_geometry::{attach_phong_raw, RawPhongGeometry};
+// The mesh lives in crate::phong::mesh; these names stay here too while callers move.
+pub use crate::phong::mesh::{patch_prim_hit, PatchTest, PhongMesh, PhongMeshBuilder, PhongMeshError};

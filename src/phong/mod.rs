@@ -25,6 +25,7 @@ pub mod accuracy;
 pub mod basis;
 pub mod cluster;
 pub mod intersect;
+pub mod mesh;
 pub mod patch;
 pub mod real;
 pub mod reference;
