@@ -302,3 +302,64 @@ fn c_api_hostile_calls() {
     let (_dir, exe) = common::compile_c(&common::root().join("tests/c/hostile_capi.c"), "hostile_capi");
     common::run_c(&exe);
 }
+
+/// Load `text` as `name` and return how long it took; `bound` is ten times the target (a
+/// correctness bound against quadratic time, not a benchmark).
+fn load_within(name: &str, text: &str, bound: Duration) -> Scene {
+    let dir = tempfile::tempdir().unwrap();
+    let start = std::time::Instant::now();
+    let s = load_in(dir.path(), name, text).unwrap();
+    let t = start.elapsed();
+    println!("{name}: loaded in {:.3} s", t.as_secs_f64());
+    assert!(t < bound, "{name}: loading took {t:?}, more than {bound:?}");
+    s
+}
+
+// Issue 24: a face of 10^6 corners over 3 vertices (a 2 MB line) ran for more than 60 s in the
+// ear clipper; its work is now bounded (target 2 s, bound 20 s).
+#[test]
+fn face_with_a_million_corners_on_three_vertices_loads_in_bounded_time() {
+    let n = 1_000_000;
+    let mut text = String::from(TRI);
+    text += "f";
+    for i in 0..n {
+        text += [" 1", " 2", " 3"][i % 3];
+    }
+    text += "\n";
+    let s = load_within("corners.obj", &text, Duration::from_secs(20));
+    assert_eq!(s.stats.triangles + s.stats.degenerate_skipped, n - 2);
+}
+
+// Issue 24: 200k groups of one face each (a CAD export's parts) took 23 s (target 2 s, bound
+// 20 s).
+#[test]
+fn two_hundred_thousand_groups_load_in_bounded_time() {
+    let n = 200_000;
+    let mut text = String::from(TRI);
+    for i in 0..n {
+        text += &format!("g part{i}\nf 1 2 3\n");
+    }
+    let s = load_within("groups.obj", &text, Duration::from_secs(20));
+    assert_eq!(s.meshes.len(), n);
+}
+
+// Issue 24: 20k `usemtl` names, each defined in the library, took 24 s (target 2 s, bound 20 s).
+#[test]
+fn twenty_thousand_materials_load_in_bounded_time() {
+    let n = 20_000;
+    let dir = tempfile::tempdir().unwrap();
+    let mut mtl = String::new();
+    let mut text = format!("mtllib m.mtl\n{TRI}");
+    for i in 0..n {
+        mtl += &format!("newmtl m{i}\nKd 0.5 0.5 0.5\nmap_Kd missing{i}.png\n");
+        text += &format!("usemtl m{i}\nf 1 2 3\n");
+    }
+    write(dir.path(), "m.mtl", &mtl);
+    let start = std::time::Instant::now();
+    let s = load_in(dir.path(), "m.obj", &text).unwrap();
+    let t = start.elapsed();
+    println!("m.obj: loaded in {:.3} s", t.as_secs_f64());
+    assert!(t < Duration::from_secs(20), "loading took {t:?}, more than 20 s");
+    assert_eq!(s.materials.len(), n);
+    assert_eq!(s.meshes.len(), n);
+}
