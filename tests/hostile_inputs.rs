@@ -166,6 +166,10 @@ fn scene_file_array_of_wrong_length_names_the_key() {
         ("[camera]\neye = [1, 2, 3, 4]\n", "camera.eye"),
         ("[camera]\nlook_at = [1, 2]\n", "camera.look_at"),
         ("[render]\nbackground = [0.1, 0.2, 0.3, 0.4]\n", "render.background"),
+        // Issue 24: these three were cut to 3 values without a word.
+        ("[[object]]\nname = \"*\"\nspecular = [0.1, 0.1, 0.1, 0.9]\n", "specular"),
+        ("[environment]\ncolor = [0.1, 0.1, 0.1, 0.9]\n", "environment.color"),
+        ("[ground]\nkd = [0.1, 0.1, 0.1, 0.9]\n", "ground.kd"),
     ] {
         let e = SceneFile::parse(text, Path::new("s.toml")).unwrap_err().to_string();
         assert!(e.contains("s.toml") && e.contains(key) && e.contains('3'), "{text:?}: {e}");
