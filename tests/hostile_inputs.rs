@@ -367,3 +367,22 @@ fn twenty_thousand_materials_load_in_bounded_time() {
     assert_eq!(s.materials.len(), n);
     assert_eq!(s.meshes.len(), n);
 }
+
+// Issue 24: 10,000 missing textures printed 10,000 warning lines; now one, with the first
+// instance and the count.
+#[test]
+fn repeated_missing_texture_warnings_fold_into_one_line() {
+    let n = 10_000;
+    let dir = tempfile::tempdir().unwrap();
+    let mut mtl = String::new();
+    let mut text = format!("mtllib m.mtl\n{TRI}");
+    for i in 0..n {
+        mtl += &format!("newmtl m{i}\nmap_Kd missing{i}.png\n");
+        text += &format!("usemtl m{i}\nf 1 2 3\n");
+    }
+    write(dir.path(), "m.mtl", &mtl);
+    let s = load_in(dir.path(), "m.obj", &text).unwrap();
+    let tex: Vec<&String> = s.warnings.iter().filter(|w| w.contains("missing")).collect();
+    assert_eq!(tex.len(), 1, "{:?}", &s.warnings[..s.warnings.len().min(3)]);
+    assert!(tex[0].contains("missing0.png") && tex[0].contains("10000 warnings"), "{}", tex[0]);
+}
