@@ -447,12 +447,12 @@ pub fn write_atomically(path: &Path, bytes: &[u8]) -> Result<(), ImageError> {
         _ => PathBuf::from("."),
     };
     let file_name = target.file_name().map(|n| n.to_string_lossy().into_owned()).unwrap_or_default();
-    let tmp = dir.join(format!(".{file_name}.{}.tmp", std::process::id()));
-    let write = || -> std::io::Result<()> {
-        let mut f = std::fs::OpenOptions::new().write(true).create_new(true).open(&tmp)?;
+    // A name no other process (on any host, in any PID namespace) uses: only this one's to
+    // remove on failure.
+    let (tmp, mut f) = super::temp_file::create_unique(&dir, &file_name).map_err(write_error)?;
+    let mut write = || -> std::io::Result<()> {
         f.write_all(bytes)?;
         f.sync_all()?;
-        drop(f);
         std::fs::rename(&tmp, &target)
     };
     write().map_err(|e| {
@@ -487,9 +487,8 @@ pub fn check_writable(path: &Path) -> Result<ImageFormat, ImageError> {
         Ok(_) => return Err(ImageError::ParentNotADirectory { path: path_buf(), dir }),
         Err(_) => return Err(ImageError::NoDirectory { path: path_buf(), dir }),
     }
-    let probe = dir.join(format!(".phongrt-probe.{}.tmp", std::process::id()));
-    match std::fs::OpenOptions::new().write(true).create_new(true).open(&probe) {
-        Ok(_) => {
+    match super::temp_file::create_unique(&dir, "phongrt-probe") {
+        Ok((probe, _)) => {
             let _ = std::fs::remove_file(&probe);
         }
         Err(reason) => return Err(ImageError::DirectoryNotWritable { path: path_buf(), dir, reason }),
