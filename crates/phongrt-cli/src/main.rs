@@ -918,6 +918,14 @@ fn write_stats(
 /// Assemble tiles into one image: every pixel covered exactly once, all from one frame size.
 fn stitch_cmd(args: StitchArgs) -> anyhow::Result<()> {
     let format = ImageFormat::from_path(&args.output).map_err(|e| Usage(format!("stitch: {e}")))?;
+    if let Some(input) = phongrt_cli::render::temp_file::input_that_is(&args.output, &args.tiles) {
+        return Err(Usage(format!(
+            "stitch: the output {} is the input tile {} (the same file): writing it would destroy the tile",
+            args.output.display(),
+            input.display()
+        ))
+        .into());
+    }
     image_out::check_writable(&args.output)?;
     let mut tiles: Vec<(String, Tile)> = Vec::new();
     for p in &args.tiles {

@@ -35,3 +35,14 @@ pub fn create_unique(dir: &Path, name: &str) -> std::io::Result<(PathBuf, File)>
     }
     Err(last.unwrap_or_else(|| std::io::Error::other("no unique temporary name found")))
 }
+
+/// The first of `inputs` that is the same file as `output` (same device and inode, so after
+/// following symbolic links and through hard links), if any: writing `output` would destroy it.
+pub fn input_that_is<'a>(output: &Path, inputs: &'a [PathBuf]) -> Option<&'a Path> {
+    use std::os::unix::fs::MetadataExt;
+    let out = std::fs::metadata(output).ok()?;
+    inputs
+        .iter()
+        .map(PathBuf::as_path)
+        .find(|p| std::fs::metadata(p).is_ok_and(|m| (m.dev(), m.ino()) == (out.dev(), out.ino())))
+}
