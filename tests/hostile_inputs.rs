@@ -386,3 +386,22 @@ fn repeated_missing_texture_warnings_fold_into_one_line() {
     assert_eq!(tex.len(), 1, "{:?}", &s.warnings[..s.warnings.len().min(3)]);
     assert!(tex[0].contains("missing0.png") && tex[0].contains("10000 warnings"), "{}", tex[0]);
 }
+
+// Issue 24: `(ulimit -f 20; phongrt render ... -o - > s.png)` was killed by SIGXFSZ with a
+// truncated file and no message; now it is an error naming the limit.
+#[test]
+fn stdout_past_the_file_size_limit_is_an_error() {
+    let dir = tempfile::tempdir().unwrap();
+    let exe = common::target_dir().join("phongrt");
+    let scene = common::root().join("scenes/sphere_lowpoly.obj");
+    let script = format!(
+        "ulimit -f 1; exec '{}' render '{}' --width 256 --height 256 -q -o - > '{}'",
+        exe.display(),
+        scene.display(),
+        dir.path().join("s.png").display()
+    );
+    let o = Command::new("sh").arg("-c").arg(script).output().unwrap();
+    let err = String::from_utf8_lossy(&o.stderr);
+    assert_eq!(o.status.code(), Some(1), "{err}");
+    assert!(err.contains("file-size limit"), "{err}");
+}

@@ -836,11 +836,7 @@ fn orbit(c: &Camera, deg: f32) -> Camera {
 fn write_output(output: &Output, bytes: &[u8]) -> anyhow::Result<()> {
     match output {
         Output::File(p) => Ok(image_out::write_atomically(p, bytes)?),
-        Output::Stdout => {
-            let mut out = std::io::stdout().lock();
-            out.write_all(bytes).context("-: cannot write the image to stdout")?;
-            out.flush().context("-: cannot write the image to stdout")
-        }
+        Output::Stdout => Ok(image_out::write_stdout(bytes)?),
     }
 }
 
