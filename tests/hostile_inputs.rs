@@ -166,6 +166,10 @@ fn scene_file_array_of_wrong_length_names_the_key() {
         ("[camera]\neye = [1, 2, 3, 4]\n", "camera.eye"),
         ("[camera]\nlook_at = [1, 2]\n", "camera.look_at"),
         ("[render]\nbackground = [0.1, 0.2, 0.3, 0.4]\n", "render.background"),
+        // Issue 24: these three were cut to 3 values without a word.
+        ("[[object]]\nname = \"*\"\nspecular = [0.1, 0.1, 0.1, 0.9]\n", "specular"),
+        ("[environment]\ncolor = [0.1, 0.1, 0.1, 0.9]\n", "environment.color"),
+        ("[ground]\nkd = [0.1, 0.1, 0.1, 0.9]\n", "ground.kd"),
     ] {
         let e = SceneFile::parse(text, Path::new("s.toml")).unwrap_err().to_string();
         assert!(e.contains("s.toml") && e.contains(key) && e.contains('3'), "{text:?}: {e}");
@@ -301,4 +305,103 @@ fn huge_face_triangulation_keeps_valences_small() {
 fn c_api_hostile_calls() {
     let (_dir, exe) = common::compile_c(&common::root().join("tests/c/hostile_capi.c"), "hostile_capi");
     common::run_c(&exe);
+}
+
+/// Load `text` as `name` and return how long it took; `bound` is ten times the target (a
+/// correctness bound against quadratic time, not a benchmark).
+fn load_within(name: &str, text: &str, bound: Duration) -> Scene {
+    let dir = tempfile::tempdir().unwrap();
+    let start = std::time::Instant::now();
+    let s = load_in(dir.path(), name, text).unwrap();
+    let t = start.elapsed();
+    println!("{name}: loaded in {:.3} s", t.as_secs_f64());
+    assert!(t < bound, "{name}: loading took {t:?}, more than {bound:?}");
+    s
+}
+
+// Issue 24: a face of 10^6 corners over 3 vertices (a 2 MB line) ran for more than 60 s in the
+// ear clipper; its work is now bounded (target 2 s, bound 20 s).
+#[test]
+fn face_with_a_million_corners_on_three_vertices_loads_in_bounded_time() {
+    let n = 1_000_000;
+    let mut text = String::from(TRI);
+    text += "f";
+    for i in 0..n {
+        text += [" 1", " 2", " 3"][i % 3];
+    }
+    text += "\n";
+    let s = load_within("corners.obj", &text, Duration::from_secs(20));
+    assert_eq!(s.stats.triangles + s.stats.degenerate_skipped, n - 2);
+}
+
+// Issue 24: 200k groups of one face each (a CAD export's parts) took 23 s (target 2 s, bound
+// 20 s).
+#[test]
+fn two_hundred_thousand_groups_load_in_bounded_time() {
+    let n = 200_000;
+    let mut text = String::from(TRI);
+    for i in 0..n {
+        text += &format!("g part{i}\nf 1 2 3\n");
+    }
+    let s = load_within("groups.obj", &text, Duration::from_secs(20));
+    assert_eq!(s.meshes.len(), n);
+}
+
+// Issue 24: 20k `usemtl` names, each defined in the library, took 24 s (target 2 s, bound 20 s).
+#[test]
+fn twenty_thousand_materials_load_in_bounded_time() {
+    let n = 20_000;
+    let dir = tempfile::tempdir().unwrap();
+    let mut mtl = String::new();
+    let mut text = format!("mtllib m.mtl\n{TRI}");
+    for i in 0..n {
+        mtl += &format!("newmtl m{i}\nKd 0.5 0.5 0.5\nmap_Kd missing{i}.png\n");
+        text += &format!("usemtl m{i}\nf 1 2 3\n");
+    }
+    write(dir.path(), "m.mtl", &mtl);
+    let start = std::time::Instant::now();
+    let s = load_in(dir.path(), "m.obj", &text).unwrap();
+    let t = start.elapsed();
+    println!("m.obj: loaded in {:.3} s", t.as_secs_f64());
+    assert!(t < Duration::from_secs(20), "loading took {t:?}, more than 20 s");
+    assert_eq!(s.materials.len(), n);
+    assert_eq!(s.meshes.len(), n);
+}
+
+// Issue 24: 10,000 missing textures printed 10,000 warning lines; now one, with the first
+// instance and the count.
+#[test]
+fn repeated_missing_texture_warnings_fold_into_one_line() {
+    let n = 10_000;
+    let dir = tempfile::tempdir().unwrap();
+    let mut mtl = String::new();
+    let mut text = format!("mtllib m.mtl\n{TRI}");
+    for i in 0..n {
+        mtl += &format!("newmtl m{i}\nmap_Kd missing{i}.png\n");
+        text += &format!("usemtl m{i}\nf 1 2 3\n");
+    }
+    write(dir.path(), "m.mtl", &mtl);
+    let s = load_in(dir.path(), "m.obj", &text).unwrap();
+    let tex: Vec<&String> = s.warnings.iter().filter(|w| w.contains("missing")).collect();
+    assert_eq!(tex.len(), 1, "{:?}", &s.warnings[..s.warnings.len().min(3)]);
+    assert!(tex[0].contains("missing0.png") && tex[0].contains("10000 warnings"), "{}", tex[0]);
+}
+
+// Issue 24: `(ulimit -f 20; phongrt render ... -o - > s.png)` was killed by SIGXFSZ with a
+// truncated file and no message; now it is an error naming the limit.
+#[test]
+fn stdout_past_the_file_size_limit_is_an_error() {
+    let dir = tempfile::tempdir().unwrap();
+    let exe = common::target_dir().join("phongrt");
+    let scene = common::root().join("scenes/sphere_lowpoly.obj");
+    let script = format!(
+        "ulimit -f 1; exec '{}' render '{}' --width 256 --height 256 -q -o - > '{}'",
+        exe.display(),
+        scene.display(),
+        dir.path().join("s.png").display()
+    );
+    let o = Command::new("sh").arg("-c").arg(script).output().unwrap();
+    let err = String::from_utf8_lossy(&o.stderr);
+    assert_eq!(o.status.code(), Some(1), "{err}");
+    assert!(err.contains("file-size limit"), "{err}");
 }

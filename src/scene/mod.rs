@@ -8,6 +8,9 @@
 
 pub mod mtl;
 pub mod obj;
+mod warnings;
+
+pub use warnings::FoldedWarnings;
 
 use crate::mesh::weld;
 pub use crate::mesh::{classify_edges, EdgeKind};
@@ -478,6 +481,7 @@ pub fn load_obj_text(text: &str, path: &Path, opts: &LoadOptions) -> Result<Scen
 /// be read, or a texture that is missing, is a warning (the default material, the flat `Kd`).
 fn load_materials(raw: &obj::RawObj, dir: &Path, name: &str, warnings: &mut Vec<String>) -> Vec<Material> {
     let mut materials: Vec<Material> = Vec::new();
+    let mut textures = FoldedWarnings::default();
     for lib in &raw.mtllibs {
         let mtl_path = obj::resolve_file(dir, lib);
         let loaded = read_regular_file(&mtl_path, MAX_MTL_BYTES)
@@ -488,7 +492,9 @@ fn load_materials(raw: &obj::RawObj, dir: &Path, name: &str, warnings: &mut Vec<
                 for m in lib.materials {
                     let tex = m.diffuse_texture.as_ref().map(|t| obj::resolve_file(dir, t));
                     if let Some(t) = &tex {
-                        warnings.extend(texture_warning(&mtl_path, t));
+                        if let Some(w) = texture_warning(&mtl_path, t) {
+                            textures.push("unreadable textures", w);
+                        }
                     }
                     materials.push(m.to_material(tex));
                 }
@@ -503,6 +509,7 @@ fn load_materials(raw: &obj::RawObj, dir: &Path, name: &str, warnings: &mut Vec<
             )),
         }
     }
+    warnings.extend(textures.into_lines());
     materials
 }
 

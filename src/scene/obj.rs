@@ -284,11 +284,16 @@ pub fn resolve_file(dir: &Path, written: &str) -> PathBuf {
     dir.join(cleaned)
 }
 
+/// How many "corner inside the ear" tests (and grid cells visited) [`triangulate`] may make per corner of the polygon
+/// before it fans the rest: real polygons need a few; 64 leaves a wide margin.
+pub const EAR_TEST_BUDGET_PER_CORNER: u64 = 64;
+
 /// Triangulate a simple polygon (convex or concave) by ear clipping in its best-fit plane
 /// (Newell's normal). Returns corner-index triples; falls back to a fan when no ear is found
 /// (self-intersecting input), so every polygon yields `n - 2` triangles.
 ///
-/// Near-linear for real polygons: the corners form a linked ring that is walked once around
+/// Linear time at worst: after [`EAR_TEST_BUDGET_PER_CORNER`] tests per corner the rest is
+/// fanned. Near-linear for real polygons well within that: the corners form a linked ring that is walked once around
 /// (not rescanned from the start after each ear), and the "no corner inside the ear" test only
 /// looks at reflex corners (the only ones that can be inside) in a uniform grid's cells under the
 /// ear's bounding box; walking on past each ear keeps corner valences small.
@@ -332,12 +337,16 @@ pub fn triangulate(points: &[Vec3]) -> Vec<[usize; 3]> {
 
     let mut tris = Vec::with_capacity(n - 2);
     let (mut remaining, mut cur, mut misses) = (n, 0usize, 0usize);
-    while remaining > 3 {
+    // The corner tests allowed in all: a polygon that needs more (many corners piled on few
+    // points, where every ear's box holds most corners) is fanned from where the budget ran out,
+    // so the time stays linear in `n` whatever the input.
+    let mut budget = EAR_TEST_BUDGET_PER_CORNER * n as u64;
+    while remaining > 3 && budget > 0 {
         let (a, b, c) = (prev[cur], cur, next[cur]);
         let is_ear = !reflex[b] && {
             // No remaining reflex corner inside (or on) the ear, except copies of its corners.
             let (lo, hi) = bbox3(p2[a], p2[b], p2[c]);
-            !grid.any_in(lo, hi, |q| {
+            let (hit, cost) = grid.any_in(lo, hi, |q| {
                 if !reflex[q]
                     || q == a
                     || q == b
@@ -349,7 +358,9 @@ pub fn triangulate(points: &[Vec3]) -> Vec<[usize; 3]> {
                     return false;
                 }
                 cross(a, b, q) >= 0.0 && cross(b, c, q) >= 0.0 && cross(c, a, q) >= 0.0
-            })
+            });
+            budget = budget.saturating_sub(cost);
+            !hit
         };
         if !is_ear {
             cur = next[cur];
@@ -378,7 +389,7 @@ pub fn triangulate(points: &[Vec3]) -> Vec<[usize; 3]> {
         cur = next[c];
     }
     // Three corners left: the last triangle; else (no ear: a self-intersecting or degenerate
-    // polygon) fan the rest.
+    // polygon, or the budget spent) fan the rest.
     let mut k = next[cur];
     for _ in 0..remaining - 2 {
         tris.push([cur, k, next[k]]);
@@ -434,10 +445,21 @@ impl ReflexGrid {
         self.cells[y * self.dims.0 + x].push(i as u32);
     }
 
-    /// Whether `hit` holds for an entry in a cell under the box `[lo, hi]`.
-    fn any_in(&self, lo: (f64, f64), hi: (f64, f64), mut hit: impl FnMut(usize) -> bool) -> bool {
+    /// Whether `hit` holds for an entry in a cell under the box `[lo, hi]`, and the work that
+    /// took (cells visited plus entries tested).
+    fn any_in(&self, lo: (f64, f64), hi: (f64, f64), mut hit: impl FnMut(usize) -> bool) -> (bool, u64) {
         let (x0, y0) = self.cell(lo);
         let (x1, y1) = self.cell(hi);
-        (y0..=y1).any(|y| (x0..=x1).any(|x| self.cells[y * self.dims.0 + x].iter().any(|&q| hit(q as usize))))
+        let mut cost = 0u64;
+        let found = (y0..=y1).any(|y| {
+            (x0..=x1).any(|x| {
+                cost += 1;
+                self.cells[y * self.dims.0 + x].iter().any(|&q| {
+                    cost += 1;
+                    hit(q as usize)
+                })
+            })
+        });
+        (found, cost)
     }
 }

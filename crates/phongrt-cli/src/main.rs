@@ -845,11 +845,7 @@ fn orbit(c: &Camera, deg: f32) -> Camera {
 fn write_output(output: &Output, bytes: &[u8]) -> anyhow::Result<()> {
     match output {
         Output::File(p) => Ok(image_out::write_atomically(p, bytes)?),
-        Output::Stdout => {
-            let mut out = std::io::stdout().lock();
-            out.write_all(bytes).context("-: cannot write the image to stdout")?;
-            out.flush().context("-: cannot write the image to stdout")
-        }
+        Output::Stdout => Ok(image_out::write_stdout(bytes)?),
     }
 }
 
@@ -927,6 +923,14 @@ fn write_stats(
 /// Assemble tiles into one image: every pixel covered exactly once, all from one frame size.
 fn stitch_cmd(args: StitchArgs) -> anyhow::Result<()> {
     let format = ImageFormat::from_path(&args.output).map_err(|e| Usage(format!("stitch: {e}")))?;
+    if let Some(input) = phongrt_render::temp_file::input_that_is(&args.output, &args.tiles) {
+        return Err(Usage(format!(
+            "stitch: the output {} is the input tile {} (the same file): writing it would destroy the tile",
+            args.output.display(),
+            input.display()
+        ))
+        .into());
+    }
     image_out::check_writable(&args.output)?;
     let mut tiles: Vec<(String, Tile)> = Vec::new();
     for p in &args.tiles {

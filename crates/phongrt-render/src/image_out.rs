@@ -415,6 +415,29 @@ fn file_size_limit() -> Option<u64> {
     line.split_whitespace().nth(3)?.parse().ok()
 }
 
+/// Write `bytes` to stdout, every write checked. A closed stdout is an error (std would drop
+/// the bytes without one), and so is a regular file that the bytes would take past the
+/// file-size limit (`ulimit -f`), which would otherwise kill the process with SIGXFSZ halfway.
+pub fn write_stdout(bytes: &[u8]) -> Result<(), ImageError> {
+    use std::io::Seek;
+    use std::os::fd::AsFd;
+    let path = || PathBuf::from("-");
+    let stdout = std::io::stdout();
+    let dup =
+        stdout.as_fd().try_clone_to_owned().map_err(|source| ImageError::Open { path: path(), source })?;
+    let mut file = std::fs::File::from(dup);
+    if file.metadata().is_ok_and(|m| m.is_file()) {
+        let at = file.stream_position().unwrap_or(0);
+        if let Some(limit) = file_size_limit().filter(|&l| at + bytes.len() as u64 > l) {
+            return Err(ImageError::FileSizeLimit { path: path(), bytes: bytes.len(), limit });
+        }
+    }
+    let mut out = stdout.lock();
+    let write_error = |source| ImageError::Write { path: path(), source };
+    out.write_all(bytes).map_err(write_error)?;
+    out.flush().map_err(write_error)
+}
+
 /// Write `bytes` to `path` so that either the whole file is there or an error is returned:
 /// a regular file (or a new one) is written to a temporary file in the same directory, every
 /// write and the final sync checked, then renamed over `path`. A path that is not a regular
@@ -447,12 +470,12 @@ pub fn write_atomically(path: &Path, bytes: &[u8]) -> Result<(), ImageError> {
         _ => PathBuf::from("."),
     };
     let file_name = target.file_name().map(|n| n.to_string_lossy().into_owned()).unwrap_or_default();
-    let tmp = dir.join(format!(".{file_name}.{}.tmp", std::process::id()));
-    let write = || -> std::io::Result<()> {
-        let mut f = std::fs::OpenOptions::new().write(true).create_new(true).open(&tmp)?;
+    // A name no other process (on any host, in any PID namespace) uses: only this one's to
+    // remove on failure.
+    let (tmp, mut f) = super::temp_file::create_unique(&dir, &file_name).map_err(write_error)?;
+    let mut write = || -> std::io::Result<()> {
         f.write_all(bytes)?;
         f.sync_all()?;
-        drop(f);
         std::fs::rename(&tmp, &target)
     };
     write().map_err(|e| {
@@ -487,9 +510,8 @@ pub fn check_writable(path: &Path) -> Result<ImageFormat, ImageError> {
         Ok(_) => return Err(ImageError::ParentNotADirectory { path: path_buf(), dir }),
         Err(_) => return Err(ImageError::NoDirectory { path: path_buf(), dir }),
     }
-    let probe = dir.join(format!(".phongrt-probe.{}.tmp", std::process::id()));
-    match std::fs::OpenOptions::new().write(true).create_new(true).open(&probe) {
-        Ok(_) => {
+    match super::temp_file::create_unique(&dir, "phongrt-probe") {
+        Ok((probe, _)) => {
             let _ = std::fs::remove_file(&probe);
         }
         Err(reason) => return Err(ImageError::DirectoryNotWritable { path: path_buf(), dir, reason }),

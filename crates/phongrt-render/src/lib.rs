@@ -9,6 +9,7 @@ pub mod camera;
 pub mod image_out;
 pub mod scene_file;
 pub mod smoothness;
+pub mod temp_file;
 pub mod text;
 pub mod texture;
 pub mod world;

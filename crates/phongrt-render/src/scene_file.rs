@@ -78,6 +78,7 @@ pub struct SceneFile {
 #[derive(Debug, Default, Deserialize, Clone, PartialEq)]
 #[serde(deny_unknown_fields)]
 pub struct EnvironmentSection {
+    #[serde(default, deserialize_with = "opt_vec3")]
     pub color: Option<[f32; 3]>,
     pub map: Option<PathBuf>,
     pub samples: Option<u32>,
@@ -90,6 +91,7 @@ pub struct GroundSection {
     /// Where the plane lies along the up axis (default: the bottom of the scene bounds).
     pub height: Option<f32>,
     /// Diffuse reflectance (default 0.6 grey).
+    #[serde(default, deserialize_with = "opt_vec3")]
     pub kd: Option<[f32; 3]>,
 }
 
@@ -191,6 +193,7 @@ pub struct ObjectSection {
     pub transmission: Option<f32>,
     pub ior: Option<f32>,
     /// Highlight reflectance (as MTL `Ks` with `illum 2`), each in [0, 1].
+    #[serde(default, deserialize_with = "opt_vec3")]
     pub specular: Option<[f32; 3]>,
     /// Highlight exponent (as MTL `Ns`), >= 0.
     pub shininess: Option<f32>,

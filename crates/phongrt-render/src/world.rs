@@ -472,7 +472,7 @@ impl World {
     ) -> Result<World, RenderError> {
         let mut scene = Scene::new(device)?;
         let mut objects = Vec::with_capacity(input.meshes.len());
-        let mut warnings = Vec::new();
+        let mut warnings = sc::FoldedWarnings::default();
         type Loaded = Result<std::sync::Arc<Texture>, String>;
         let mut textures: Vec<(std::path::PathBuf, Loaded)> = Vec::new();
         for (i, mesh) in input.meshes.iter().enumerate() {
@@ -509,9 +509,7 @@ impl World {
                 Some(m) => {
                     let (s, w) = Surface::from_material_checked(m, &input.path);
                     for w in w {
-                        if !warnings.contains(&w) {
-                            warnings.push(w);
-                        }
+                        warnings.push("material values clamped", w);
                     }
                     s
                 }
@@ -529,14 +527,17 @@ impl World {
                         mesh.name,
                         path.display()
                     );
-                    warnings.push(w);
+                    warnings.push("textures without `vt` coordinates", w);
                 } else {
                     let loaded = match textures.iter().find(|(p, _)| *p == path) {
                         Some((_, t)) => t.clone(),
                         None => {
                             let t = Texture::load(&path).map(std::sync::Arc::new);
                             if let Err(e) = &t {
-                                warnings.push(format!("{e}; using the flat Kd colour"));
+                                warnings.push(
+                                    "textures that do not decode",
+                                    format!("{e}; using the flat Kd colour"),
+                                );
                             }
                             textures.push((path.clone(), t.clone()));
                             t
@@ -591,7 +592,7 @@ impl World {
             max_depth: 6,
             shading: ShadingNormal::default(),
             terminator: Terminator::default(),
-            warnings,
+            warnings: warnings.into_lines().collect(),
             environment: None,
         })
     }
