@@ -16,7 +16,9 @@
 //!
 //! Every failure is one line on stderr and exit status 1: what was found, and what is needed.
 
-use std::collections::BTreeMap;
+#[path = "src/sys/layout.rs"]
+mod layout;
+use layout::layout_of;
 use std::env;
 use std::path::{Path, PathBuf};
 
@@ -232,19 +234,6 @@ fn generate(include_dir: &Path) -> Result<String, String> {
         Ok(Err(e)) => Err(format!("bindgen failed on {}: {e}", rtcore.display())),
         Err(_) => Err("bindgen could not load libclang (set LIBCLANG_PATH)".to_string()),
     }
-}
-
-/// The layout bindgen asserts for each struct, from its generated checks: `"Size of RTCRay" -> 64`.
-fn layout_of(bindings: &str) -> BTreeMap<String, u64> {
-    bindings
-        .lines()
-        .filter_map(|l| {
-            let l = l.trim().strip_prefix("[\"")?;
-            let (what, rest) = l.split_once("\"]")?;
-            let n = rest.rsplit_once(" - ")?.1.strip_suffix("usize];")?;
-            Some((what.to_string(), n.parse().ok()?))
-        })
-        .collect()
 }
 
 /// `Err` naming the first layout that differs between the committed bindings and `installed`.

@@ -2,20 +2,9 @@
 //! `bundled-bindings`) lay out every struct as the installed headers do: each size, alignment and
 //! field offset that bindgen asserts in the committed file is the one it asserts for the headers
 //! this build found (build.rs writes the bindings it compiles to `PHONGRT_BINDINGS_RS`).
-use std::collections::BTreeMap;
-
-/// bindgen's layout checks: `["Size of RTCRay"][size_of::<RTCRay>() - 64usize];` -> ("Size of RTCRay", 64).
-fn layout_of(bindings: &str) -> BTreeMap<String, u64> {
-    bindings
-        .lines()
-        .filter_map(|l| {
-            let l = l.trim().strip_prefix("[\"")?;
-            let (what, rest) = l.split_once("\"]")?;
-            let n = rest.rsplit_once(" - ")?.1.strip_suffix("usize];")?;
-            Some((what.to_string(), n.parse().ok()?))
-        })
-        .collect()
-}
+#[path = "../src/sys/layout.rs"]
+mod layout;
+use layout::layout_of;
 
 #[test]
 fn bundled_bindings_have_the_layout_of_the_installed_headers() {
