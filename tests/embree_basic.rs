@@ -161,3 +161,19 @@ fn a_scene_instanced_elsewhere_cannot_be_recommitted() {
     drop(parent);
     child.commit().unwrap();
 }
+
+#[test]
+fn scene_new_with_callers_pending_device_error_succeeds_and_leaves_it() {
+    use phongrt::sys;
+    let device = Device::new().unwrap();
+    let other = Scene::new(&device).unwrap();
+    // SAFETY (test): `other` is a live scene; the caller's own mistake through the raw API, a
+    // build quality scenes do not take (refit is for geometries), leaves an error pending.
+    unsafe { sys::rtcSetSceneBuildQuality(other.raw(), sys::RTCBuildQuality::RTC_BUILD_QUALITY_REFIT) };
+    let scene = Scene::new(&device).expect("a new scene despite the caller's pending error");
+    assert!(device.check().is_err(), "the caller's pending error is still theirs to read");
+    drop(scene);
+    let scene = unit_triangle_scene(&device, u32::MAX);
+    let hit = scene.intersect1(Ray::new(Vec3::new(0.25, 0.25, 1.0), -Vec3::Z)).unwrap();
+    assert_eq!((hit.geom_id, hit.t), (0, 1.0));
+}

@@ -6,7 +6,8 @@ use std::panic::{catch_unwind, AssertUnwindSafe};
 
 use glam::Vec3;
 
-use super::user_geometry::{new_user_geometry, UserData, UserGeometryOptions};
+use super::phong_geometry::attach_user_raw;
+use super::user_geometry::{UserData, UserGeometryOptions};
 use crate::phong::mesh::PhongMesh;
 use crate::phong::ShadingNormal;
 use crate::sys;
@@ -169,40 +170,20 @@ unsafe fn attach_mesh(
         let builder = if flags & PHONGRT_MESH_PLAIN != 0 { builder.plain() } else { builder };
         let mesh = builder.build().map_err(|e| format!("{func}: {e}"))?;
         let boxed = Box::new(phongrt_mesh { data: UserData::new(mesh) });
-        // SAFETY: `scene` is live (contract), so its device is; the mesh box is leaked to the
-        // caller, who frees it with phongrt_mesh_release only after releasing the scene
-        // (phongrt.h), so the geometry's user pointer stays valid while it can be traced.
-        unsafe {
-            let device = sys::rtcGetSceneDevice(scene);
-            let ptr: *const UserData<PhongMesh> = &boxed.data;
-            let geom = new_user_geometry(device, ptr, UserGeometryOptions::default());
-            // rtcGetSceneDevice retained the device: release that reference.
-            if geom.is_null() {
-                sys::rtcReleaseDevice(device);
-                return Err(format!("{func}: Embree could not create a user geometry"));
-            }
-            let id = sys::rtcAttachGeometry(scene, geom);
-            sys::rtcReleaseGeometry(geom);
-            // rtcAttachGeometry returns RTC_INVALID_GEOMETRY_ID exactly when it fails (rtcore's
-            // API wrappers return -1 on error). The device's error code is read only then: an
-            // error left pending by the caller's own earlier calls is theirs, and must not turn a
-            // successful attach (the geometry is in the scene, pointing into `boxed`) into a
-            // failure that frees the mesh under it.
-            if id == sys::RTC_INVALID_GEOMETRY_ID {
-                let err = sys::rtcGetDeviceError(device);
-                sys::rtcReleaseDevice(device);
-                let code = super::device::ErrorCode::from_raw(err);
-                return Err(format!("{func}: Embree: {}", code.unwrap_or(super::ErrorCode::Unknown)));
-            }
-            sys::rtcReleaseDevice(device);
-            if !mesh_out.is_null() {
-                *mesh_out = Box::into_raw(boxed);
-            } else {
-                // Without a handle the caller can never free it: keep it for the process lifetime.
-                Box::leak(boxed);
-            }
-            Ok(id)
+        // SAFETY: `scene` is live and non-NULL (contract, checked above); the mesh box is
+        // leaked to the caller, who frees it with phongrt_mesh_release only after releasing the
+        // scene (phongrt.h), so the geometry's user pointer stays valid while it can be traced;
+        // on an error nothing is attached and the box is dropped here.
+        let id = unsafe { attach_user_raw(scene, &boxed.data, UserGeometryOptions::default()) }
+            .map_err(|e| format!("{func}: {e}"))?;
+        if !mesh_out.is_null() {
+            // SAFETY: mesh_out is writable per the contract.
+            unsafe { *mesh_out = Box::into_raw(boxed) };
+        } else {
+            // Without a handle the caller can never free it: keep it for the process lifetime.
+            Box::leak(boxed);
         }
+        Ok(id)
     }));
     match r {
         Ok(Ok(id)) => {

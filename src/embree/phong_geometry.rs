@@ -97,24 +97,67 @@ pub unsafe fn attach_phong_raw(
         return Err(EmbreeError::Null("scene"));
     }
     let data = Box::new(UserData::new(mesh.into()));
-    // SAFETY: the caller guarantees `scene` is live; rtcGetSceneDevice returns its device with
-    // a new reference, released below (rtcGetSceneDevice docs). The data box lives in the
-    // returned handle, which the caller keeps alive while the scene is traced (this function's
-    // contract), so the geometry's user pointer stays valid.
+    // SAFETY: the caller guarantees `scene` is live. The data box lives in the returned handle,
+    // which the caller keeps alive while the scene is traced (this function's contract); on an
+    // error nothing is attached, so dropping the box then is sound.
+    let geom_id = unsafe { attach_user_raw(scene, &*data as *const UserData<Arc<PhongMesh>>, options)? };
+    Ok(RawPhongGeometry { data, geom_id })
+}
+
+/// Attach the user geometry of `data` to a raw scene of the caller's own Embree code: the one
+/// raw-attach path, shared by [`attach_phong_raw`] and the C API. Returns the geomID.
+///
+/// The device's error code is read only when a call's return value says it failed (a null
+/// geometry, `RTC_INVALID_GEOMETRY_ID` from the attach): an error left pending by the caller's
+/// own earlier calls is theirs, and must not turn a successful attach (the geometry is in the
+/// scene, pointing into `data`) into a failure that frees the data under it. On `Err` nothing
+/// is attached.
+///
+/// # Safety
+/// `scene` must be a live, non-null `RTCScene`, and `data` must stay valid (not moved, not
+/// freed) until every scene holding the geometry (and every scene instancing one) is released.
+pub(crate) unsafe fn attach_user_raw<T: UserPrimitives>(
+    scene: sys::RTCScene,
+    data: *const UserData<T>,
+    options: UserGeometryOptions,
+) -> Result<u32, EmbreeError> {
+    // SAFETY: `scene` is live (this function's contract); rtcGetSceneDevice returns its device
+    // with a new reference, released below (rtcGetSceneDevice docs); `data` outlives the
+    // geometry (contract). rtcNewGeometry returns null and rtcAttachGeometry returns
+    // RTC_INVALID_GEOMETRY_ID exactly when they fail (rtcore's API wrappers), so the error code
+    // read then is theirs.
     unsafe {
         let device = sys::rtcGetSceneDevice(scene);
-        let geom = new_user_geometry(device, &*data as *const UserData<Arc<PhongMesh>>, options);
-        if geom.is_null() {
-            sys::rtcReleaseDevice(device);
-            return Err(EmbreeError::Null("user geometry"));
-        }
-        let geom_id = sys::rtcAttachGeometry(scene, geom);
-        sys::rtcReleaseGeometry(geom);
-        let err = sys::rtcGetDeviceError(device);
+        let geom = new_user_geometry(device, data, options);
+        let result = if geom.is_null() {
+            Err(raw_error(device, "user geometry", "creating a user geometry"))
+        } else {
+            let geom_id = sys::rtcAttachGeometry(scene, geom);
+            // The scene holds its own reference when the attach succeeded (rtcAttachGeometry docs).
+            sys::rtcReleaseGeometry(geom);
+            if geom_id == sys::RTC_INVALID_GEOMETRY_ID {
+                Err(raw_error(device, "geometry ID", "attaching a user geometry"))
+            } else {
+                Ok(geom_id)
+            }
+        };
         sys::rtcReleaseDevice(device);
-        if err != sys::RTCError::RTC_ERROR_NONE {
-            return Err(EmbreeError::from_code(err, "attaching a Phong mesh".into()));
-        }
-        Ok(RawPhongGeometry { data, geom_id })
+        result
+    }
+}
+
+/// The error of a raw call on `device` whose return value said it failed: the device's code,
+/// or [`EmbreeError::Null`] naming `what` came back when Embree recorded none.
+///
+/// # Safety
+/// `device` must be a live `RTCDevice`.
+unsafe fn raw_error(device: sys::RTCDevice, what: &'static str, doing: &str) -> EmbreeError {
+    // SAFETY: `device` is live (this function's contract); reading its error has no other
+    // precondition (rtcGetDeviceError docs).
+    let code = unsafe { sys::rtcGetDeviceError(device) };
+    if code == sys::RTCError::RTC_ERROR_NONE {
+        EmbreeError::Null(what)
+    } else {
+        EmbreeError::from_code(code, doing.into())
     }
 }

@@ -364,19 +364,14 @@ impl Scene {
     pub fn new(device: &Device) -> Result<Self, EmbreeError> {
         // SAFETY: the device is live (held by `device`, and by the scene handle from now on).
         let raw = unsafe { sys::rtcNewScene(device.raw()) };
-        device.check()?;
+        // rtcNewScene returns null exactly when it fails: the device's error is read only then
+        // (an error left pending by the caller's raw calls is theirs); a scene is owned at once.
         if raw.is_null() {
+            device.check()?;
             return Err(EmbreeError::Null("scene"));
         }
-        Ok(Scene {
-            inner: Arc::new(SceneHandle {
-                raw,
-                device: device.clone(),
-                keep_alive: Vec::new(),
-                panics: Vec::new(),
-            }),
-            committed: false,
-        })
+        let handle = SceneHandle { raw, device: device.clone(), keep_alive: Vec::new(), panics: Vec::new() };
+        Ok(Scene { inner: Arc::new(handle), committed: false })
     }
 
     /// Embree's robust mode (`RTC_SCENE_FLAG_ROBUST`): acceleration structures that allow robust
@@ -434,14 +429,20 @@ impl Scene {
     }
 
     /// Attach a committed geometry (our reference to it is released either way); returns its
-    /// geomID.
+    /// geomID. On `Err` the geometry is not attached.
     pub(crate) fn attach_raw(&mut self, geom: OwnedGeometry) -> Result<u32, EmbreeError> {
         let raw = self.handle_mut()?.raw;
         // SAFETY: `geom` is a live, committed geometry of this scene's device; attaching
         // retains it, and `geom` then drops our own reference (rtcAttachGeometry docs).
         let id = unsafe { sys::rtcAttachGeometry(raw, geom.raw()) };
         drop(geom);
-        self.device().check()?;
+        // rtcAttachGeometry returns RTC_INVALID_GEOMETRY_ID exactly when it fails (rtcore's API
+        // wrappers): the device's error is read only then, so a geometry in the scene is never
+        // reported as a failure.
+        if id == sys::RTC_INVALID_GEOMETRY_ID {
+            self.device().check()?;
+            return Err(EmbreeError::Null("geometry ID"));
+        }
         Ok(id)
     }
 

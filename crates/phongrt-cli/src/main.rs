@@ -96,6 +96,12 @@ fn one_line(e: &anyhow::Error) -> String {
 
 fn run(cli: Cli) -> anyhow::Result<()> {
     embree::set_flush_denormals();
+    // Every thread that traces rays runs in the float mode Embree asks for, not only the
+    // renderer's own pool: rayon's global pool (the bench's multi-threaded rays) too.
+    rayon::ThreadPoolBuilder::new()
+        .start_handler(|_| embree::set_flush_denormals())
+        .build_global()
+        .context("cannot start the thread pool")?;
     match cli.command {
         Command::Render(args) => render_cmd(*args),
         Command::Info(args) => info_cmd(args),
