@@ -204,3 +204,24 @@ fn tiles_of_one_render_at_other_thread_counts_and_tilings_stitch_to_the_whole_re
     phongrt().arg("stitch").arg(&out).arg(&t0).arg(&t1).assert().success();
     assert_eq!(std::fs::read(&out).unwrap(), std::fs::read(&whole).unwrap());
 }
+
+// A texture rewritten between two tiles (one byte appended after its PNG data): the digest
+// covers the textures' contents, so the tiles are refused although every setting is the same.
+#[test]
+fn stitch_refuses_a_tile_whose_texture_changed_between_renders() {
+    let dir = tempfile::tempdir().unwrap();
+    for f in ["duck.obj", "duck.mtl", "duckCM.png"] {
+        std::fs::copy(common::root().join("scenes/duck").join(f), dir.path().join(f)).unwrap();
+    }
+    let obj = dir.path().join("duck.obj");
+    let obj_s = obj.to_str().unwrap();
+    let t0 = tile_of(dir.path(), "t_0", "png", 0, 2, &[obj_s]);
+    let mut tex = std::fs::read(dir.path().join("duckCM.png")).unwrap();
+    tex.push(0);
+    std::fs::write(dir.path().join("duckCM.png"), tex).unwrap();
+    let t1 = tile_of(dir.path(), "t_1", "png", 1, 2, &[obj_s]);
+    let out = dir.path().join("out.png");
+    let a = phongrt().arg("stitch").arg(&out).arg(&t0).arg(&t1).assert().code(2);
+    let err = String::from_utf8_lossy(&a.get_output().stderr);
+    assert!(err.contains("different renders") && err.contains("settings differ"), "{err}");
+}

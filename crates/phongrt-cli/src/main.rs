@@ -888,16 +888,17 @@ fn run_frames(mut job: RenderJob, device: &Device, t_start: Instant) -> anyhow::
         if let Some(p) = camera.problem() {
             bail!("camera of frame {}: {p} (the orbit of --frames)", k.unwrap_or(0));
         }
-        // Render, encode and write it.
+        // Record what the tile is of (its files read before the render), then render, encode and
+        // write it.
+        let record = plan.crop.map(|_| job.record(k).to_text());
         let out = render::render_extent(&world, &camera, &job.settings, &extent)?;
         let t = Instant::now();
         let window = out.window;
-        let record = job.record(k).to_text();
         let opts = EncodeOptions {
             alpha: out.alpha.as_deref(),
             window: (!window.is_full()).then_some(window),
             // Every tile or crop records its render, even one that is the whole frame (--tile 0/1).
-            render: plan.crop.is_some().then_some(&record[..]),
+            render: record.as_deref(),
         };
         let bytes = image_out::encode(&out.image, plan.format, &opts)?;
         write_output(&output, &bytes)?;
