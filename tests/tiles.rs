@@ -274,9 +274,12 @@ fn image_errors_are_typed_one_line_and_name_the_file() {
     assert!(bad.source().is_some(), "{bad:?}");
 
     let alpha = [1.0f32; 3];
-    let short =
-        encode(&Image::new(2, 2), ImageFormat::Png, &EncodeOptions { alpha: Some(&alpha), window: None })
-            .unwrap_err();
+    let short = encode(
+        &Image::new(2, 2),
+        ImageFormat::Png,
+        &EncodeOptions { alpha: Some(&alpha), ..Default::default() },
+    )
+    .unwrap_err();
     assert!(matches!(short, ImageError::AlphaLength { alpha: 3, pixels: 4 }), "{short:?}");
     assert_eq!(short.to_string(), "alpha has 3 values for 4 pixels");
 }

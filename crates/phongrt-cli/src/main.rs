@@ -15,6 +15,7 @@ use cli::{Cli, Command, InfoArgs, LoadArgs, RenderArgs, StitchArgs};
 use phongrt::embree::{self, Device};
 use phongrt::scene::{self, LoadOptions};
 use phongrt_render::image_out::{self, EncodeOptions, ImageFormat, Tile, TilePixels};
+use phongrt_render::render_record::{Digest, RenderRecord};
 use phongrt_render::scene_file::{self, LightSection, SceneFile};
 use phongrt_render::{
     self as render, AmbientOcclusion, Camera, Image, Light, ObjectMode, ObjectSettings, RenderExtent,
@@ -534,7 +535,7 @@ impl SceneSource {
 
 /// Which mode each object gets: the scene file's `[[object]]` entries over --mode/--alpha,
 /// and --object over both.
-#[derive(Clone)]
+#[derive(Clone, Debug)]
 struct ModeRules {
     default: ObjectMode,
     file_objects: Vec<scene_file::ObjectSection>,
@@ -572,6 +573,7 @@ struct RenderJob {
     plan: RenderPlan,
     source: SceneSource,
     input: scene::Scene,
+    load: LoadOptions,
     modes: ModeRules,
     settings: RenderSettings,
     shading: phongrt::phong::ShadingNormal,
@@ -592,7 +594,8 @@ impl RenderJob {
 
         // Load the mesh, and check the object names given for it.
         let crease = sf.and_then(|s| s.crease_angle).unwrap_or(args.load.crease_angle);
-        let input = load(&source.obj, &load_options(&args.load, crease)?)?;
+        let load_opts = load_options(&args.load, crease)?;
+        let input = load(&source.obj, &load_opts)?;
         for (name, _) in &overrides {
             if !(name == "*" || input.meshes.iter().any(|m| m.name == *name)) {
                 usage!(
@@ -642,7 +645,85 @@ impl RenderJob {
             seed: plan.seed,
             packets: args.packets == cli::Switch::On,
         };
-        Ok(RenderJob { plan, source, input, modes, settings, shading, terminator, camera, ground, stages })
+        Ok(RenderJob {
+            plan,
+            source,
+            input,
+            load: load_opts,
+            modes,
+            settings,
+            shading,
+            terminator,
+            camera,
+            ground,
+            stages,
+        })
+    }
+
+    /// What a tile of frame `k` records: a digest of the scene files' contents, the resolved
+    /// settings and the version (nothing of the thread count, tiling or tile index), and the
+    /// settings worth naming when two tiles disagree.
+    fn record(&self, k: Option<u32>) -> RenderRecord {
+        // Compute the digest of the files' contents (not their paths, which differ between hosts).
+        let mut d = Digest::default();
+        let mut files = vec![self.source.obj.clone()];
+        if !self.source.file_path.as_os_str().is_empty() {
+            files.push(self.source.file_path.clone());
+        }
+        files.extend(self.input.materials.iter().filter_map(|m| m.diffuse_texture.clone()));
+        let env_map = self.source.file.as_ref().and_then(|f| f.environment.as_ref()?.map.as_ref());
+        if let Some(m) = env_map {
+            files.push(self.source.file_path.parent().unwrap_or(Path::new(".")).join(m));
+        }
+        for f in &files {
+            match std::fs::read(f) {
+                Ok(bytes) => d.part("file", &bytes),
+                Err(e) => d.part("unreadable file", e.kind().to_string().as_bytes()),
+            }
+        }
+        // Compute the digest of the resolved settings.
+        let materials: Vec<_> = self
+            .input
+            .materials
+            .iter()
+            .map(|m| scene::Material { diffuse_texture: None, ..m.clone() })
+            .collect();
+        let p = &self.plan;
+        let settings = format!(
+            "{:?}",
+            (
+                (p.width, p.height, p.spp, p.seed, p.frames, k, p.format, p.alpha),
+                (&self.load, &materials, &self.modes, self.settings.packets),
+                (self.shading, self.terminator, self.camera, self.ground),
+            )
+        );
+        d.part("settings", settings.as_bytes());
+        d.part("version", env!("CARGO_PKG_VERSION").as_bytes());
+        // Name the settings most likely to differ.
+        let scene = if self.source.file_path.as_os_str().is_empty() {
+            &self.source.obj
+        } else {
+            &self.source.file_path
+        };
+        let scene = scene.file_name().map(|n| n.to_string_lossy().into_owned()).unwrap_or_default();
+        let fields = [
+            ("scene", scene),
+            (
+                "mode",
+                match self.modes.default {
+                    ObjectMode::Flat => "flat".to_string(),
+                    ObjectMode::Phong { alpha } => format!("phong:{alpha}"),
+                },
+            ),
+            ("spp", p.spp.to_string()),
+            ("seed", p.seed.to_string()),
+            ("frame", k.map_or("-".into(), |k| k.to_string())),
+            ("version", env!("CARGO_PKG_VERSION").to_string()),
+        ];
+        RenderRecord {
+            digest: d.finish(),
+            fields: fields.into_iter().map(|(k, v)| (k.to_string(), v)).collect(),
+        }
     }
 
     /// The world to render: every object in its mode (or all in `forced`), the key light
@@ -813,12 +894,18 @@ fn run_frames(mut job: RenderJob, device: &Device, t_start: Instant) -> anyhow::
         if let Some(p) = camera.problem() {
             bail!("camera of frame {}: {p} (the orbit of --frames)", k.unwrap_or(0));
         }
-        // Render, encode and write it.
+        // Record what the tile is of (its files read before the render), then render, encode and
+        // write it.
+        let record = plan.crop.map(|_| job.record(k).to_text());
         let out = render::render_extent(&world, &camera, &job.settings, &extent)?;
         let t = Instant::now();
         let window = out.window;
-        let opts =
-            EncodeOptions { alpha: out.alpha.as_deref(), window: (!window.is_full()).then_some(window) };
+        let opts = EncodeOptions {
+            alpha: out.alpha.as_deref(),
+            window: (!window.is_full()).then_some(window),
+            // Every tile or crop records its render, even one that is the whole frame (--tile 0/1).
+            render: record.as_deref(),
+        };
         let bytes = image_out::encode(&out.image, plan.format, &opts)?;
         write_output(&output, &bytes)?;
         let write = t.elapsed().as_secs_f64();
@@ -969,6 +1056,7 @@ fn stitch_cmd(args: StitchArgs) -> anyhow::Result<()> {
             );
         }
     }
+    check_same_render(&tiles)?;
     for (i, (a_name, a)) in tiles.iter().enumerate() {
         for (b_name, b) in &tiles[i + 1..] {
             if a.window.overlaps(&b.window) {
@@ -996,7 +1084,7 @@ fn stitch_cmd(args: StitchArgs) -> anyhow::Result<()> {
             blit_rows(&mut data, src, &t.window, fw, channels);
         }
         match format {
-            ImageFormat::Png => image_out::encode_png8(fw, fh, channels == 4, &data, None)?,
+            ImageFormat::Png => image_out::encode_png8(fw, fh, channels == 4, &data, None, None)?,
             ImageFormat::Exr => usage!(
                 "stitch: {}: PNG tiles are 8-bit sRGB; stitch them to .png (EXR output needs EXR tiles)",
                 args.output.display()
@@ -1016,11 +1104,46 @@ fn stitch_cmd(args: StitchArgs) -> anyhow::Result<()> {
                 alpha.push(px[3]);
             }
         }
-        let opts = EncodeOptions { alpha: (channels == 4).then_some(&alpha[..]), window: None };
+        let opts = EncodeOptions { alpha: (channels == 4).then_some(&alpha[..]), ..Default::default() };
         image_out::encode(&img, format, &opts)?
     };
     image_out::write_atomically(&args.output, &bytes)?;
     eprintln!("phongrt: wrote {} ({fw}x{fh} from {} tiles)", args.output.display(), tiles.len());
+    Ok(())
+}
+
+/// Refuse tiles of different renders (their digests differ) and tiles that record none.
+fn check_same_render(tiles: &[(String, Tile)]) -> anyhow::Result<()> {
+    let mut records = Vec::new();
+    for (name, t) in tiles {
+        let Some(text) = &t.render else {
+            usage!(
+                "stitch: {name}: records no render digest (a tile of an older phongrt, or not a tile); \
+                 render it again"
+            );
+        };
+        let Some(r) = RenderRecord::from_text(text) else {
+            usage!("stitch: {name}: malformed {} {text:?}", phongrt_render::render_record::RENDER_KEY);
+        };
+        records.push(r);
+    }
+    let (first_name, first) = (&tiles[0].0, &records[0]);
+    for ((name, _), r) in tiles.iter().zip(&records).skip(1) {
+        if r.digest == first.digest {
+            continue;
+        }
+        match first.first_difference(r) {
+            Some((key, a, b)) => {
+                usage!("stitch: {name} and {first_name} are tiles of different renders: {key} {b} in {name}, {a} in {first_name}")
+            }
+            None => usage!(
+                "stitch: {name} and {first_name} are tiles of different renders: their scene files or \
+                 settings differ (digest {:016x} vs {:016x})",
+                r.digest,
+                first.digest
+            ),
+        }
+    }
     Ok(())
 }
 

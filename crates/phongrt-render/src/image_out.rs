@@ -7,6 +7,8 @@ use std::path::{Path, PathBuf};
 
 use glam::Vec3;
 
+use crate::render_record::RENDER_KEY;
+
 /// Why an image could not be encoded, written or read back: one line naming the file (encoding
 /// works in memory and names none). An I/O or codec cause is the `source()`, so a caller printing
 /// the chain gets `FILE: cannot write: No space left on device (os error 28)`.
@@ -311,6 +313,9 @@ pub struct EncodeOptions<'a> {
     pub alpha: Option<&'a [f32]>,
     /// Where the image sits in its full frame (a crop or tile), recorded for `stitch`.
     pub window: Option<Window>,
+    /// The render's [`RenderRecord`](crate::render_record::RenderRecord) text, recorded beside
+    /// the window so that `stitch` can refuse tiles of another render.
+    pub render: Option<&'a str>,
 }
 
 /// Encode an image in memory.
@@ -333,7 +338,7 @@ pub fn encode(img: &Image, format: ImageFormat, opts: &EncodeOptions) -> Result<
                     }
                 }
             }
-            encode_png8(img.width, img.height, channels == 4, &data, opts.window)
+            encode_png8(img.width, img.height, channels == 4, &data, opts.window, opts.render)
         }
         ImageFormat::Exr => encode_exr(img, opts),
     }
@@ -346,6 +351,7 @@ pub fn encode_png8(
     rgba: bool,
     data: &[u8],
     window: Option<Window>,
+    render: Option<&str>,
 ) -> Result<Vec<u8>, ImageError> {
     let mut out = Vec::new();
     {
@@ -355,6 +361,9 @@ pub fn encode_png8(
         enc.set_source_srgb(png::SrgbRenderingIntent::Perceptual);
         if let Some(win) = window {
             enc.add_text_chunk(WINDOW_KEY.to_string(), win.to_text()).map_err(ImageError::EncodePng)?;
+        }
+        if let Some(r) = render {
+            enc.add_text_chunk(RENDER_KEY.to_string(), r.to_string()).map_err(ImageError::EncodePng)?;
         }
         let mut writer = enc.write_header().map_err(ImageError::EncodePng)?;
         writer.write_image_data(data).map_err(ImageError::EncodePng)?;
@@ -370,6 +379,9 @@ fn encode_exr(img: &Image, opts: &EncodeOptions) -> Result<Vec<u8>, ImageError> 
     let mut attrs = LayerAttributes::named("");
     attrs.layer_position = Vec2(win.x0 as i32, win.y0 as i32);
     attrs.software_name = Some(Text::from("phongrt"));
+    if let Some(r) = opts.render {
+        attrs.other.insert(Text::from(RENDER_KEY), AttributeValue::Text(Text::from(r)));
+    }
     let mut buf = Vec::new();
     let px = |p: Vec2<usize>| img.pixels[p.y() * w + p.x()];
     let result = match opts.alpha {
@@ -535,6 +547,9 @@ pub struct Tile {
     pub pixels: TilePixels,
     /// Whether the file recorded a window (PNG text chunk, or an EXR display window).
     pub has_window: bool,
+    /// The recorded [`RenderRecord`](crate::render_record::RenderRecord) text (none in tiles
+    /// written before it was recorded).
+    pub render: Option<String>,
 }
 
 /// Read a PNG or EXR written by `phongrt render` (any crop or tile of it).
@@ -566,11 +581,13 @@ pub fn read_tile(path: &Path) -> Result<Tile, ImageError> {
                 ),
                 None => (Window::full(w, h), false),
             };
+            let render = info.uncompressed_latin1_text.iter().find(|t| t.keyword == RENDER_KEY);
+            let render = render.map(|t| t.text.clone());
             let mut data = vec![0u8; reader.output_buffer_size().ok_or(ImageError::PngTooLarge)?];
             reader.next_frame(&mut data).map_err(png_error)?;
             data.truncate(w as usize * h as usize * channels);
             check_size(path, &window, w, h)?;
-            Ok(Tile { window, pixels: TilePixels::Srgb8 { channels, data }, has_window })
+            Ok(Tile { window, pixels: TilePixels::Srgb8 { channels, data }, has_window, render })
         }
         ImageFormat::Exr => {
             use exr::prelude::*;
@@ -606,6 +623,10 @@ pub fn read_tile(path: &Path) -> Result<Tile, ImageError> {
                 full_width: disp.size.x() as u32,
                 full_height: disp.size.y() as u32,
             };
+            let render = match layer.attributes.other.get(&Text::from(RENDER_KEY)) {
+                Some(AttributeValue::Text(t)) => Some(t.to_string()),
+                _ => None,
+            };
             let channels = if *has_alpha { 4 } else { 3 };
             let data: Vec<f32> = if *has_alpha {
                 buf.clone()
@@ -613,7 +634,8 @@ pub fn read_tile(path: &Path) -> Result<Tile, ImageError> {
                 buf.chunks_exact(4).flat_map(|c| [c[0], c[1], c[2]]).collect()
             };
             check_size(path, &window, w, h)?;
-            Ok(Tile { window, pixels: TilePixels::Linear { channels, data }, has_window: !window.is_full() })
+            let has_window = !window.is_full();
+            Ok(Tile { window, pixels: TilePixels::Linear { channels, data }, has_window, render })
         }
     }
 }

@@ -7,6 +7,7 @@
 
 pub mod camera;
 pub mod image_out;
+pub mod render_record;
 pub mod scene_file;
 pub mod smoothness;
 pub mod temp_file;
