@@ -701,16 +701,19 @@ fn crease_warning(meshes: &[Mesh], opts: &LoadOptions, name: &str) -> Option<Str
     })
 }
 
+/// A triangle's unit normal (right-handed winding), computed in f64; zero for a degenerate one.
+fn unit_face_normal(corners: [Vec3; 3]) -> DVec3 {
+    let [a, b, c] = corners.map(|p| p.as_dvec3());
+    (b - a).cross(c - a).normalize_or_zero()
+}
+
 /// Creases whose faces meet at less than this (degrees) count as soft in [`crease_warning`].
 const SOFT_CREASE_DEG: f32 = 80.0;
 
 /// A mesh's crease edges whose two faces' normals differ by less than [`SOFT_CREASE_DEG`], and
 /// its shared (smooth or crease) edges, each edge counted once.
 fn soft_creases(m: &Mesh) -> (usize, usize) {
-    let face_normal = |t: usize| {
-        let [a, b, c] = m.indices[t].map(|i| m.positions[i as usize].as_dvec3());
-        (b - a).cross(c - a).normalize_or_zero()
-    };
+    let face_normal = |t: usize| unit_face_normal(m.indices[t].map(|i| m.positions[i as usize]));
     let mut creases: HashMap<(u32, u32), Vec<usize>> = HashMap::new();
     let mut shared = 0;
     for (t, kinds) in m.edge_kinds.iter().enumerate() {
@@ -928,13 +931,8 @@ impl ComputedNormals {
     fn new(tris: &[Tri], positions: &[Vec3], opts: &LoadOptions) -> ComputedNormals {
         let at = |pid: u32| positions[pid as usize];
         // Compute the face normals and the corners incident to each position.
-        let face_normals: Vec<Vec3> = tris
-            .iter()
-            .map(|t| {
-                let [a, b, c] = t.pid.map(|q| at(q).as_dvec3());
-                (b - a).cross(c - a).normalize_or_zero().as_vec3()
-            })
-            .collect();
+        let face_normals: Vec<Vec3> =
+            tris.iter().map(|t| unit_face_normal(t.pid.map(at)).as_vec3()).collect();
         let mut incident: HashMap<u32, Vec<(usize, usize)>> = HashMap::new();
         for (ti, t) in tris.iter().enumerate() {
             for (k, &pid) in t.pid.iter().enumerate() {
