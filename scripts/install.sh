@@ -1,5 +1,5 @@
 #!/usr/bin/env bash
-# Install the C library: scripts/install.sh PREFIX
+# Install the C library: scripts/install.sh [--keep-debug] PREFIX
 #
 #   PREFIX/include/phongrt.h                 (PHONGRT_VERSION_MAJOR/MINOR/PATCH and PHONGRT_VERSION
 #                                             filled in from the workspace version)
@@ -9,8 +9,14 @@
 #   PREFIX/lib/cmake/phongrt/phongrtConfig.cmake (+ phongrtConfigVersion.cmake): phongrt::phongrt
 #   PREFIX/share/doc/phongrt/                (the licences)
 #   and, when the Embree 4 found is not a system package (not in the dynamic loader's search
-#   path), its runtime and headers: PREFIX/lib/libembree4*.so*, libtbb*.so*, PREFIX/include/embree4/
-#   (+ its copyright in PREFIX/share/doc/phongrt/).
+#   path), its runtime and headers: PREFIX/lib/libembree4.so.4 (the file its SONAME names, and the
+#   libembree4.so link), the TBB libraries libembree4 itself needs (its DT_NEEDED entries found
+#   beside it), PREFIX/include/embree4/ (+ its copyright in PREFIX/share/doc/phongrt/).
+#
+# The libraries are installed stripped of debug information. With --keep-debug, the debug
+# information of libphongrt.so goes to PREFIX/lib/debug/libphongrt.so.VERSION.debug, linked from the
+# library by .gnu_debuglink (gdb finds it with `set debug-file-directory PREFIX/lib/debug`).
+# The prefix's size is printed at the end.
 #
 # Embree is looked for in the order of build.rs: EMBREE_DIR, pkg-config `embree4`, /usr,
 # /usr/local, /opt/homebrew, /opt/local, then the cache of scripts/setup-embree.sh.
@@ -23,7 +29,9 @@ set -euo pipefail
 cd "$(dirname "$0")/.."
 
 die() { echo "install.sh: error: $*" >&2; exit 1; }
-[ $# -eq 1 ] || die "usage: scripts/install.sh PREFIX"
+keep_debug=no
+if [ "${1:-}" = --keep-debug ]; then keep_debug=yes; shift; fi
+[ $# -eq 1 ] || die "usage: scripts/install.sh [--keep-debug] PREFIX"
 prefix="$1"
 case "$prefix" in /*) ;; *) prefix="$PWD/$prefix" ;; esac
 case "$prefix" in *[[:space:]]*) die "PREFIX '$prefix' contains whitespace, which the flags of \`pkg-config phongrt\` cannot carry" ;; esac
@@ -115,16 +123,38 @@ mv "$prefix/include/phongrt.h.tmp" "$prefix/include/phongrt.h"
 
 # The libraries: the real file, the SONAME link, the development link.
 rm -f "$prefix/lib/libphongrt.so" "$prefix/lib/libphongrt.so.$major"
-install -m 0755 "$target/libphongrt.so" "$prefix/lib/libphongrt.so.$version"
+so="$prefix/lib/libphongrt.so.$version"
+install -m 0755 "$target/libphongrt.so" "$so"
+if [ "$keep_debug" = yes ]; then
+  mkdir -p "$prefix/lib/debug"
+  objcopy --only-keep-debug "$so" "$prefix/lib/debug/libphongrt.so.$version.debug"
+  strip --strip-unneeded "$so"
+  objcopy --add-gnu-debuglink="$prefix/lib/debug/libphongrt.so.$version.debug" "$so"
+else
+  strip --strip-unneeded "$so"
+fi
 ln -s "libphongrt.so.$version" "$prefix/lib/libphongrt.so.$major"
 ln -s "libphongrt.so.$major" "$prefix/lib/libphongrt.so"
 install -m 0644 "$target/libphongrt.a" "$prefix/lib/libphongrt.a"
+strip --strip-debug "$prefix/lib/libphongrt.a"
 install -m 0644 LICENSE-MIT LICENSE-APACHE "$prefix/share/doc/phongrt/"
 
 # Embree: shipped beside libphongrt (symlinks kept), or referenced where the system has it.
 if [ "$ship" = yes ]; then
-  cp -P "$emb_lib"/libembree4*.so* "$prefix/lib/"
-  for f in "$emb_lib"/libtbb*.so*; do if [ -e "$f" ]; then cp -P "$f" "$prefix/lib/"; fi; done
+  # Only what the loader needs: libembree4's SONAME (the file itself, under that name), the
+  # development link, and the libraries libembree4 names as DT_NEEDED that sit beside it (TBB).
+  emb_soname="$(readelf -d "$emb_lib/libembree4.so" | sed -n 's/.*SONAME.*\[\(.*\)\]/\1/p')"
+  [ -n "$emb_soname" ] || die "$emb_lib/libembree4.so has no SONAME"
+  rm -f "$prefix"/lib/libembree4*.so* "$prefix"/lib/libtbb*.so*
+  ship_lib() { # ship_lib NAME: NAME's real file copied as NAME, stripped of debug information.
+    install -m 0644 "$(readlink -f "$emb_lib/$1")" "$prefix/lib/$1"
+    if readelf -S "$prefix/lib/$1" | grep -q '\.debug_info'; then strip --strip-debug "$prefix/lib/$1"; fi
+  }
+  ship_lib "$emb_soname"
+  ln -s "$emb_soname" "$prefix/lib/libembree4.so"
+  for dep in $(readelf -d "$emb_lib/$emb_soname" | sed -n 's/.*NEEDED.*\[\(.*\)\]/\1/p'); do
+    if [ -e "$emb_lib/$dep" ]; then ship_lib "$dep"; fi
+  done
   rm -rf "$prefix/include/embree4" && cp -r "$emb_inc/embree4" "$prefix/include/"
   cop="$(dirname "$emb_lib")/COPYRIGHT.embree"
   if [ -f "$cop" ]; then install -m 0644 "$cop" "$prefix/share/doc/phongrt/COPYRIGHT.embree"; fi
@@ -188,4 +218,4 @@ CV
 # Put the build tree's libphongrt.so back (its rpath also names the Embree it was built with).
 cargo build --release --quiet -p phongrt-capi
 
-echo "installed phongrt $version into $prefix"
+echo "installed phongrt $version into $prefix ($(du -sh "$prefix" | cut -f1) in all)"

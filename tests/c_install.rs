@@ -142,6 +142,34 @@ fn install_lays_out_header_libraries_pc_cmake_and_embree() {
     if !system {
         assert!(p.join("lib").join(&needed).exists(), "{needed} is not shipped into PREFIX/lib");
         assert!(p.join("include/embree4/rtcore.h").is_file(), "the Embree headers are not shipped");
+        // Only the loader's files: libembree4 under the name libphongrt needs, the development
+        // link, and the libraries libembree4 needs (TBB); no other libembree4/libtbb file.
+        let shipped: Vec<String> = std::fs::read_dir(p.join("lib"))
+            .unwrap()
+            .map(|e| e.unwrap().file_name().to_string_lossy().into_owned())
+            .filter(|n| n.starts_with("libembree4") || n.starts_with("libtbb"))
+            .collect();
+        let emb_needs = readelf_dynamic(&p.join("lib").join(&needed));
+        for name in &shipped {
+            let wanted = *name == needed
+                || name == "libembree4.so"
+                || emb_needs.contains(&format!("Shared library: [{name}]"));
+            assert!(wanted, "{name} is shipped but nothing loads it (shipped: {shipped:?})");
+        }
+    }
+}
+
+/// The installed libraries carry no debug information (install.sh strips them; `--keep-debug`
+/// keeps it in a separate file).
+#[test]
+fn installed_libraries_are_stripped() {
+    let p = prefix();
+    let version = env!("CARGO_PKG_VERSION");
+    for lib in [format!("lib/libphongrt.so.{version}"), "lib/libphongrt.a".into()] {
+        let out = Command::new("readelf").arg("-S").arg(p.join(&lib)).output().expect("cannot run readelf");
+        check("readelf -S", &out);
+        let sections = String::from_utf8_lossy(&out.stdout);
+        assert!(!sections.contains(".debug_info"), "{lib} still has debug information");
     }
 }
 
