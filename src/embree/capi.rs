@@ -214,6 +214,31 @@ pub unsafe extern "C" fn phongrt_mesh_release(mesh: *mut phongrt_mesh) {
     }
 }
 
+/// Why a shading helper could not answer at `(prim, u, v)` (and `dir`, for the shading normals):
+/// the first argument that is wrong, with its value and the reason, for `phongrt_last_error`.
+fn explain_refusal(func: &str, mesh: &PhongMesh, prim: u32, u: f32, v: f32, dir: Option<Vec3>) -> String {
+    let count = mesh.patches().len();
+    match mesh.patches().get(prim as usize) {
+        None => format!("{func}: prim_id {prim} is out of range: the mesh has {count} triangles"),
+        Some(_) if !(u.is_finite() && v.is_finite()) => format!("{func}: (u, v) = ({u}, {v}) is not finite"),
+        Some(p) if p.degenerate() => {
+            format!("{func}: triangle {prim} is degenerate (zero area after welding): it has no surface")
+        }
+        Some(_) => match dir {
+            Some(d) if !d.is_finite() || d == Vec3::ZERO => {
+                format!("{func}: ray_dir ({}, {}, {}) is zero or not finite", d.x, d.y, d.z)
+            }
+            Some(_) => format!(
+                "{func}: the surface of triangle {prim} has no normal at (u, v) = ({u}, {v}) \
+                 (a fold, or (u, v) far outside the triangle)"
+            ),
+            None => {
+                format!("{func}: (u, v) = ({u}, {v}) is too far outside triangle {prim}: the point overflows")
+            }
+        },
+    }
+}
+
 /// See `phongrt_shading_normal` in include/phongrt.h.
 ///
 /// # Safety
@@ -262,15 +287,20 @@ pub unsafe extern "C" fn phongrt_shading_normal_rule(
         // SAFETY: pointers are valid per the contract (checked non-NULL above).
         let (m, d) = unsafe { (&(*mesh).data.prims, read_vec3s(ray_dir, 1)[0]) };
         m.shading_normal_with(prim_id, u, v, d, rule)
+            .ok_or_else(|| explain_refusal("phongrt_shading_normal", m, prim_id, u, v, Some(d)))
     }));
     match r {
-        Ok(Some(n)) => {
+        Ok(Ok(n)) => {
             // SAFETY: normal_out has 3 writable floats (contract).
             unsafe { std::ptr::copy_nonoverlapping(n.to_array().as_ptr(), normal_out, 3) };
             0
         }
-        _ => {
-            set_error("phongrt_shading_normal: bad primitive, (u, v) or direction");
+        Ok(Err(msg)) => {
+            set_error(&msg);
+            -1
+        }
+        Err(_) => {
+            set_error("phongrt_shading_normal: internal error (panic caught)");
             -1
         }
     }
@@ -292,17 +322,27 @@ pub unsafe extern "C" fn phongrt_surface_point(
         set_error("phongrt_surface_point: NULL argument");
         return -1;
     }
-    // SAFETY: `mesh` is live (contract).
-    let r = catch_unwind(AssertUnwindSafe(|| unsafe { &(*mesh).data.prims }.surface_point(prim_id, u, v)));
+    let r = catch_unwind(AssertUnwindSafe(|| {
+        // SAFETY: `mesh` is live (contract).
+        let m = unsafe { &(*mesh).data.prims };
+        match m.surface_point(prim_id, u, v) {
+            // Far outside the triangle the point overflows: an error, not success with NaN.
+            Some((p, _err)) if p.is_finite() => Ok(p),
+            _ => Err(explain_refusal("phongrt_surface_point", m, prim_id, u, v, None)),
+        }
+    }));
     match r {
-        // Far outside the triangle the point overflows: an error, not success with NaN.
-        Ok(Some((p, _err))) if p.is_finite() => {
+        Ok(Ok(p)) => {
             // SAFETY: point_out has 3 writable floats (contract).
             unsafe { std::ptr::copy_nonoverlapping(p.to_array().as_ptr(), point_out, 3) };
             0
         }
-        _ => {
-            set_error("phongrt_surface_point: bad primitive, or (u, v) not finite or too far out");
+        Ok(Err(msg)) => {
+            set_error(&msg);
+            -1
+        }
+        Err(_) => {
+            set_error("phongrt_surface_point: internal error (panic caught)");
             -1
         }
     }
