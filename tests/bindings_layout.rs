@@ -22,3 +22,31 @@ fn bundled_bindings_have_the_layout_of_the_installed_headers() {
     assert_eq!(want["Size of RTCRayHit"], 96);
     assert_eq!(std::mem::size_of::<phongrt::sys::RTCRayHit>(), 96);
 }
+
+/// bindgen without rustfmt writes its output as spaced tokens on one line: the layout read from
+/// it is the same (a machine without rustfmt must not fail the bundled-bindings check).
+#[test]
+fn layout_is_read_the_same_from_unformatted_bindings() {
+    let bundled = include_str!("../src/sys/embree-4.3.rs");
+    // What quote's token printing does to the checks: spaces between tokens outside string
+    // literals, no line breaks.
+    let spaced =
+        |code: &str| code.replace("::", " :: ").replace('<', " < ").replace('>', " > ").replace("][", "] [");
+    let unformatted: String = bundled
+        .lines()
+        .map(|l| {
+            let parts: Vec<String> = l
+                .trim()
+                .split('"')
+                .enumerate()
+                .map(|(i, p)| if i % 2 == 0 { spaced(p) } else { p.to_string() })
+                .collect();
+            parts.join("\"")
+        })
+        .collect::<Vec<_>>()
+        .join(" ");
+    assert!(!unformatted.contains('\n'));
+    let (want, have) = (layout_of(bundled), layout_of(&unformatted));
+    assert!(want.len() > 150, "only {} layout checks in the committed bindings", want.len());
+    assert_eq!(want, have);
+}
