@@ -30,6 +30,7 @@ fn region<T: Real>() -> (T, T) {
 /// `π(u, v) - π(o)` is the pair of conics `(F, G)` of [`Projected`], so the Jacobian, the
 /// certificate and Newton's iteration all run in the plane on their 12 scalar coefficients
 /// (the analytic fallback reuses them); `t` is the surface point's projection on the ray.
+#[inline(always)]
 pub(super) fn certified_newton<T: Real>(
     p: &Patch<T>,
     o: V3<T>,
