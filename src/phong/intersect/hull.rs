@@ -50,7 +50,8 @@ pub(super) fn hits_hull<T: Real, const FMA: bool>(
     {
         let inv = T::ONE / dd;
         let (a, b) = ((lo - oo) * inv, (hi - oo) * inv);
-        let (near, far) = if a > b { (b, a) } else { (a, b) };
+        // `if a > b { (b, a) } else { (a, b) }`, NaN included, as one min and one max.
+        let (near, far) = (b.min(a), a.max(b));
         // `x.max(t0)` keeps t0 when x is NaN (Real::max compares `x > t0`), likewise `min`.
         t0 = near.max(t0);
         t1 = (far * widen).min(t1);
