@@ -39,7 +39,9 @@ pub struct Patch<T> {
     pub(crate) hi: V3<T>,
     /// A tighter conservative hull (local frame): the prism of 5 half-spaces `n_k · x <= h_k`:
     /// the face normal and its opposite (the patch's thickness) and the 3 outward edge normals in
-    /// the face plane (each edge's side drop), every offset the maximum over the 6 control points.
+    /// the face plane (each edge's side drop), every offset the exact maximum of the surface
+    /// along its normal, padded, and widened by [`prism_slack`] (the part of the hull test's
+    /// rounding slack that does not depend on the ray, added here once instead of per test).
     pub(crate) prism_n: [V3<T>; 5],
     pub(crate) prism_h: [T; 5],
     /// Whether the patch has zero area or non-finite input: it is never hit.
@@ -187,6 +189,12 @@ pub fn adapt_shading_normal<T: Real>(wo: V3<T>, ng: V3<T>, ns: V3<T>) -> V3<T> {
     }
 }
 
+/// A prism offset `h` widened by the ray-independent part of the hull test's rounding slack in
+/// precision `T`: `γ(8) (1 + |h|)` (the test adds `γ(8) |o|∞` for the ray's origin `o`).
+fn prism_slack<T: Real>(h: f64) -> f64 {
+    h + T::gamma(8).to_f64() * (1.0 + h.abs())
+}
+
 /// The padding of a patch's local-frame bounds and prism offsets for precision `T`: the
 /// rounding of the control points and of their cast to `T`, relative to the local frame (whose
 /// extent is about 1).
@@ -277,7 +285,7 @@ impl<T: Real> Patch<T> {
             lo: lo.cast(),
             hi: hi.cast(),
             prism_n: prism_n.map(|n| n.cast()),
-            prism_h: prism_h.map(T::from_f64),
+            prism_h: prism_h.map(|h| T::from_f64(prism_slack::<T>(h))),
             degenerate,
         }
     }
@@ -298,8 +306,16 @@ impl<T: Real> Patch<T> {
         let extra = (bounds_pad::<U>() - bounds_pad::<T>()).max(0.0);
         let widen = V3::new(extra, extra, extra);
         let prism_n = self.prism_n.map(|n| n.to_f64());
-        let prism_h: [f64; 5] =
-            std::array::from_fn(|k| self.prism_h[k].to_f64() + prism_n[k].dot(shift) + extra);
+        // The offsets already carry T's slack; a coarser U needs its own on top.
+        let coarser = U::UNIT_ROUNDOFF.to_f64() > T::UNIT_ROUNDOFF.to_f64();
+        let prism_h: [f64; 5] = std::array::from_fn(|k| {
+            let h = self.prism_h[k].to_f64() + prism_n[k].dot(shift) + extra;
+            if coarser {
+                prism_slack::<U>(h)
+            } else {
+                h
+            }
+        });
         Patch {
             center: center_u,
             scale: U::from_f64(self.scale.to_f64()),
@@ -351,7 +367,8 @@ impl<T: Real> Patch<T> {
     }
 
     /// The conservative prism (local frame): the patch satisfies `normals[k] · x <= offsets[k]`
-    /// for the 5 planes (face normal both ways, then the 3 outward edge normals).
+    /// for the 5 planes (face normal both ways, then the 3 outward edge normals). The offsets
+    /// include the ray-independent part of the hull test's rounding slack.
     pub fn prism(&self) -> ([V3<T>; 5], [T; 5]) {
         (self.prism_n, self.prism_h)
     }

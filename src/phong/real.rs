@@ -42,6 +42,11 @@ pub trait Real:
     fn is_sign_positive(self) -> bool;
     /// `self * a + b` (two roundings: not a fused multiply-add).
     fn mul_add(self, a: Self, b: Self) -> Self;
+    /// `self`'s magnitude with the sign bit of `sign` (so `-0.0` counts as negative).
+    fn copysign_bits(self, sign: Self) -> Self;
+    /// `self * a + b` with one rounding (a fused multiply-add): one instruction only where the
+    /// calling function is compiled with the `fma` target feature, a library call elsewhere.
+    fn fused_mul_add(self, a: Self, b: Self) -> Self;
     /// The larger of the two; `o` when either is NaN.
     fn max(self, o: Self) -> Self {
         if self > o {
@@ -120,6 +125,14 @@ macro_rules! impl_real {
             fn mul_add(self, a: Self, b: Self) -> Self {
                 // Plain multiply-add: `fma` is a libm call without target-feature fma.
                 self * a + b
+            }
+            #[inline(always)]
+            fn copysign_bits(self, sign: Self) -> Self {
+                <$t>::copysign(self, sign)
+            }
+            #[inline(always)]
+            fn fused_mul_add(self, a: Self, b: Self) -> Self {
+                <$t>::mul_add(self, a, b)
             }
         }
     };

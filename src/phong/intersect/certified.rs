@@ -30,6 +30,7 @@ fn region<T: Real>() -> (T, T) {
 /// `π(u, v) - π(o)` is the pair of conics `(F, G)` of [`Projected`], so the Jacobian, the
 /// certificate and Newton's iteration all run in the plane on their 12 scalar coefficients
 /// (the analytic fallback reuses them); `t` is the surface point's projection on the ray.
+#[inline(always)]
 pub(super) fn certified_newton<T: Real>(
     p: &Patch<T>,
     o: V3<T>,
@@ -93,32 +94,33 @@ fn jacobian<T: Real>(pr: &Projected<T>, u: T, v: T) -> [T; 4] {
     ]
 }
 
-/// `J0` (the Jacobian at the centroid) and its inverse's scale, computed once for every
-/// certificate check of a test.
+/// `J0⁻¹` up to a positive factor, computed once for every certificate check of a test: the
+/// adjugate of `J0` (the Jacobian at the centroid) times the sign of `det J0`. The certificate
+/// below is invariant under a positive scale of `J0⁻¹ J`, so no division is needed.
 struct Anchor<T> {
-    /// `J0 = J(1/3, 1/3)`.
-    j0: [T; 4],
-    /// `1 / det J0`.
-    inv_det: T,
+    /// `sign(det J0) adj(J0)`, row-major.
+    k: [T; 4],
 }
 
 /// [`Anchor`] when the symmetric part of `J0⁻¹ J` is clearly positive definite at the corners of
 /// `R`: then the projection is one-to-one on `R`. `None` when it is not, or when `J0` is within
 /// rounding of singular (the ray grazes the patch: it proves nothing).
+#[inline(always)]
 fn one_to_one_on_region<T: Real>(pr: &Projected<T>) -> Option<Anchor<T>> {
     let third = T::from_f64(1.0 / 3.0);
     let j0 = jacobian(pr, third, third);
     let det0 = j0[0] * j0[3] - j0[1] * j0[2];
-    let j0n = j0.iter().fold(T::ZERO, |m, x| m.max(x.abs()));
+    let j0n = j0[0].abs().max(j0[1].abs()).max(j0[2].abs()).max(j0[3].abs());
     if !(det0.abs() > T::gamma(64).sqrt() * j0n * j0n) {
         return None;
     }
-    let anchor = Anchor { j0, inv_det: T::ONE / det0 };
+    let s = if det0 > T::ZERO { T::ONE } else { -T::ONE };
+    let anchor = Anchor { k: [j0[3] * s, -j0[1] * s, -j0[2] * s, j0[0] * s] };
     let (lo, hi) = region::<T>();
-    [(lo, lo), (hi, lo), (lo, hi)]
-        .into_iter()
-        .all(|(u, v)| certificate_holds(&anchor, jacobian(pr, u, v)))
-        .then_some(anchor)
+    let holds = certificate_holds(&anchor, jacobian(pr, lo, lo))
+        && certificate_holds(&anchor, jacobian(pr, hi, lo))
+        && certificate_holds(&anchor, jacobian(pr, lo, hi));
+    holds.then_some(anchor)
 }
 
 /// Whether the symmetric part of `J0⁻¹ J` is clearly positive definite. The matrices that pass
@@ -126,19 +128,21 @@ fn one_to_one_on_region<T: Real>(pr: &Projected<T>) -> Option<Anchor<T>> {
 /// passing on all of it.
 #[inline(always)]
 fn certificate_holds<T: Real>(anchor: &Anchor<T>, j: [T; 4]) -> bool {
-    let (j0, inv) = (&anchor.j0, anchor.inv_det);
-    // M = J0⁻¹ J; its symmetric part must be clearly positive definite (a margin of 1% of
-    // its diagonal product keeps the answer out of the rounding of J0⁻¹ and of J).
-    let m00 = (j0[3] * j[0] - j0[1] * j[2]) * inv;
-    let m01 = (j0[3] * j[1] - j0[1] * j[3]) * inv;
-    let m10 = (j0[0] * j[2] - j0[2] * j[0]) * inv;
-    let m11 = (j0[0] * j[3] - j0[2] * j[1]) * inv;
+    let k = &anchor.k;
+    // M = J0⁻¹ J up to a positive factor; its symmetric part must be clearly positive definite
+    // (a margin of 1% of its diagonal product keeps the answer out of the rounding of J0⁻¹ and
+    // of J; the test is invariant under a positive scale of M).
+    let m00 = k[0] * j[0] + k[1] * j[2];
+    let m01 = k[0] * j[1] + k[1] * j[3];
+    let m10 = k[2] * j[0] + k[3] * j[2];
+    let m11 = k[2] * j[1] + k[3] * j[3];
     let h = (m01 + m10) * T::from_f64(0.5);
     m00 > T::ZERO && m11 > T::ZERO && m00 * m11 - h * h > T::from_f64(0.01) * m00 * m11
 }
 
 /// The start of Newton's iteration: the ray's hit with the flat triangle (`F` and `G` with their
 /// quadratic terms dropped: `P(1,0) - P(0,0) = a + d`, `P(0,1) - P(0,0) = b + e`).
+#[inline(always)]
 fn flat_start<T: Real>(pr: &Projected<T>) -> Option<(T, T)> {
     let ([fa, fb, _, fd, fe, ff], [ga, gb, _, gd, ge, gf]) = (pr.f.k, pr.g.k);
     let (l00, l01, l10, l11) = (fa + fd, fb + fe, ga + gd, gb + ge);
@@ -151,27 +155,25 @@ fn flat_start<T: Real>(pr: &Projected<T>) -> Option<(T, T)> {
 }
 
 /// Newton on `(F, G) = 0` in the plane of `(u, v)` from `(u, v)`: the last iterate and whether
-/// it converged, or `None` on a singular Jacobian or a non-finite step.
+/// it converged. No test per step: a singular Jacobian or an overflow makes the step NaN or
+/// infinite, which never passes the convergence test and stays NaN to the end (a NaN iterate is
+/// reported as not converged).
+#[inline(always)]
 fn newton_plane<T: Real>(pr: &Projected<T>, mut u: T, mut v: T) -> Option<(T, T, bool)> {
     let ([fa, fb, fc, fd, fe, ff], [ga, gb, gc, gd, ge, gf]) = (pr.f.k, pr.g.k);
+    let tol = T::gamma(64);
     for _ in 0..8 {
         let r0 = ((fa * u + fc * v + fd) * u + (fb * v + fe) * v) + ff;
         let r1 = ((ga * u + gc * v + gd) * u + (gb * v + ge) * v) + gf;
         let j = jacobian(pr, u, v);
-        let det = j[0] * j[3] - j[1] * j[2];
-        if det == T::ZERO || !det.is_finite() {
-            return None;
-        }
-        let idet = T::ONE / det;
+        let idet = T::ONE / (j[0] * j[3] - j[1] * j[2]);
         let du = (j[1] * r1 - j[3] * r0) * idet;
         let dv = (j[2] * r0 - j[0] * r1) * idet;
-        if !(du.is_finite() && dv.is_finite()) {
-            return None;
-        }
         u = u + du;
         v = v + dv;
-        if du.abs().max(dv.abs()) <= T::gamma(64) {
-            return Some((u, v, true));
+        // False for a NaN or infinite step.
+        if du.abs() <= tol && dv.abs() <= tol {
+            return Some((u, v, u.is_finite() && v.is_finite()));
         }
     }
     Some((u, v, false))

@@ -7,11 +7,14 @@
 //! bounds and prism rejection), `analytic` (enumerate the pencil's degenerate members, split
 //! them into lines, offer the roots), `certified` (the one-to-one certificate and Newton in the
 //! plane), `newton` (Newton in space), `domain` (the triangle's tolerances, the clamp and the
-//! on-the-ray test) and `retry` (the f64 retry). [`intersect`] below dispatches between them.
+//! on-the-ray test) and `retry` (the f64 retry). [`intersect`] below dispatches between them,
+//! compiled twice by `dispatch`: for baseline x86-64 and for x86-64-v3 (AVX2 and FMA), the one
+//! the CPU runs chosen at run time.
 
 mod analytic;
 mod certified;
 mod conic;
+mod dispatch;
 mod domain;
 mod hull;
 mod newton;
@@ -130,7 +133,7 @@ pub fn intersect_traced<T: Real>(
     tmax: T,
     method: Method,
 ) -> (Option<PatchHit<T>>, TestOutcome) {
-    intersect_with(p, org, dir, tmin, tmax, method, true)
+    dispatch::intersect_dispatched(p, org, dir, tmin, tmax, method, true)
 }
 
 /// [`intersect_traced`] for a ray a caller has already tested against a conservative hull of
@@ -146,12 +149,13 @@ pub fn intersect_in_hull_traced<T: Real>(
     tmax: T,
     method: Method,
 ) -> (Option<PatchHit<T>>, TestOutcome) {
-    intersect_with(p, org, dir, tmin, tmax, method, false)
+    dispatch::intersect_dispatched(p, org, dir, tmin, tmax, method, false)
 }
 
-/// The body of [`intersect_traced`], with the hull test where `cull`.
+/// The body of [`intersect_traced`], with the hull test where `cull`; `FMA` where the caller is
+/// compiled with the `fma` target feature (the hull test then fuses its dot products).
 #[inline(always)]
-fn intersect_with<T: Real>(
+fn intersect_with<T: Real, const FMA: bool>(
     p: &Patch<T>,
     org: V3<T>,
     dir: V3<T>,
@@ -160,18 +164,18 @@ fn intersect_with<T: Real>(
     method: Method,
     cull: bool,
 ) -> (Option<PatchHit<T>>, TestOutcome) {
-    if p.degenerate || tmin.to_f64().is_nan() || tmax.to_f64().is_nan() {
-        return (None, TestOutcome::BadInput);
-    }
     // To the local frame (t is unchanged). A non-finite ray stays non-finite there (the frame's
     // centre and scale are finite), so one test covers both.
     let o = (org - p.center) * p.inv_scale;
     let d = dir * p.inv_scale;
-    if !(o.is_finite() && d.is_finite()) || d.max_abs() == T::ZERO {
-        return (None, TestOutcome::BadInput);
-    }
-    if cull && !hits_hull(p, o, d, tmin, tmax) {
+    // The hull test comes first: it turns away half the tests Embree hands over, and never a
+    // ray that hits (it passes NaN, which the bad-input test below then turns away).
+    if cull && !hits_hull::<T, FMA>(p, o, d, tmin, tmax) {
         return (None, TestOutcome::HullReject);
+    }
+    let bad_interval = tmin.to_f64().is_nan() || tmax.to_f64().is_nan();
+    if p.degenerate || bad_interval || !(o.is_finite() && d.is_finite()) || d.max_abs() == T::ZERO {
+        return (None, TestOutcome::BadInput);
     }
     match method {
         Method::Analytic => {
@@ -185,7 +189,9 @@ fn intersect_with<T: Real>(
 }
 
 /// [`Method::AnalyticPolished`], or [`Method::Certified`] when `certify`, on the local ray
-/// `(o, d)`, with the f64 retry from the world-space ray `world`.
+/// `(o, d)`, with the f64 retry from the world-space ray `world`. Inlined, so that the certified
+/// path is compiled into each version of [`dispatch`].
+#[inline(always)]
 fn polished<T: Real>(
     p: &Patch<T>,
     world: (V3<T>, V3<T>),
@@ -241,7 +247,7 @@ mod tests {
             let p: Patch<f32> = Patch::new(c.p, c.n, c.alpha);
             let o = (V3::from(target + fnorm * 3.0).cast::<f32>() - p.center) * p.inv_scale;
             let d = V3::from(-fnorm).cast::<f32>() * p.inv_scale;
-            if !hits_hull(&p, o, d, 0.0, f32::INFINITY) {
+            if !hits_hull::<f32, false>(&p, o, d, 0.0, f32::INFINITY) {
                 continue;
             }
             let (hit, ambiguous) = analytic_local(&p, o, d, 0.0, f32::INFINITY, true);

@@ -1,0 +1,103 @@
+//! Run-time multiversioning of the patch test: [`intersect_with`] compiled for baseline x86-64
+//! and again for x86-64-v3 (AVX2 and FMA: three-operand VEX encodings, fused dot products in
+//! the hull test), the one the CPU runs chosen by `is_x86_feature_detected!` (detected once,
+//! then read from the standard library's cache). The release binary stays portable.
+//!
+//! Both versions give the same hits bit for bit: Rust never contracts `a * b + c` into a fused
+//! operation, so the only fused arithmetic is the hull test's, whose rounding its slack absorbs
+//! either way (it only turns away rays that cannot hit).
+//!
+//! This module holds the one `unsafe` outside the Embree layer: the call of a function compiled
+//! for features the baseline target does not promise, right after detecting them.
+
+use super::{intersect_with, Method, PatchHit, TestOutcome};
+use crate::phong::patch::Patch;
+use crate::phong::real::{Real, V3};
+
+/// [`intersect_with`] compiled with AVX2 and FMA enabled (and the hull test fused).
+#[cfg(target_arch = "x86_64")]
+#[target_feature(enable = "avx2,fma")]
+fn intersect_v3<T: Real>(
+    p: &Patch<T>,
+    org: V3<T>,
+    dir: V3<T>,
+    tmin: T,
+    tmax: T,
+    method: Method,
+    cull: bool,
+) -> (Option<PatchHit<T>>, TestOutcome) {
+    intersect_with::<T, true>(p, org, dir, tmin, tmax, method, cull)
+}
+
+/// Whether this CPU runs [`intersect_v3`].
+#[cfg(target_arch = "x86_64")]
+#[inline(always)]
+pub(super) fn has_v3() -> bool {
+    std::arch::is_x86_feature_detected!("avx2") && std::arch::is_x86_feature_detected!("fma")
+}
+
+/// [`intersect_with`] in the version this CPU runs best.
+#[inline(always)]
+pub(super) fn intersect_dispatched<T: Real>(
+    p: &Patch<T>,
+    org: V3<T>,
+    dir: V3<T>,
+    tmin: T,
+    tmax: T,
+    method: Method,
+    cull: bool,
+) -> (Option<PatchHit<T>>, TestOutcome) {
+    #[cfg(target_arch = "x86_64")]
+    if has_v3() {
+        // SAFETY: `intersect_v3` is safe Rust whose only requirement is that the CPU has the
+        // AVX2 and FMA features it is compiled with; `has_v3` has just detected both at run time.
+        return unsafe { intersect_v3(p, org, dir, tmin, tmax, method, cull) };
+    }
+    intersect_with::<T, false>(p, org, dir, tmin, tmax, method, cull)
+}
+
+/// [`intersect_with`] in its baseline version, whatever the CPU: for comparing the two.
+#[cfg(test)]
+pub(super) fn intersect_baseline<T: Real>(
+    p: &Patch<T>,
+    org: V3<T>,
+    dir: V3<T>,
+    tmin: T,
+    tmax: T,
+    method: Method,
+    cull: bool,
+) -> (Option<PatchHit<T>>, TestOutcome) {
+    intersect_with::<T, false>(p, org, dir, tmin, tmax, method, cull)
+}
+
+#[cfg(test)]
+mod tests {
+    use super::*;
+    use crate::phong::accuracy::{generate, Category, SplitMix};
+
+    /// The x86-64-v3 version answers as the baseline one, bit for bit, on rays of every
+    /// accuracy category (when this CPU has AVX2 and FMA; otherwise both are the baseline).
+    #[test]
+    fn v3_and_baseline_versions_give_identical_hits() {
+        let mut rng = SplitMix(27);
+        let (mut hits, mut outcome_differs) = (0usize, 0usize);
+        let n = 40_000;
+        for i in 0..n {
+            let category = Category::ALL[i % Category::ALL.len()];
+            let c = generate(&mut rng, category);
+            let p: Patch<f32> = Patch::new(c.p, c.n, c.alpha);
+            let (o, d) = (V3::from(c.org).cast::<f32>(), V3::from(c.dir).cast::<f32>());
+            for method in [Method::Certified, Method::AnalyticPolished, Method::Newton] {
+                let fast = intersect_dispatched(&p, o, d, 0.0, f32::INFINITY, method, true);
+                let base = intersect_baseline(&p, o, d, 0.0, f32::INFINITY, method, true);
+                assert_eq!(fast.0, base.0, "case {i} ({category:?}, {method:?}): {c:?}");
+                hits += fast.0.is_some() as usize;
+                outcome_differs += (fast.1 != base.1) as usize;
+            }
+        }
+        assert!(hits > n / 4, "only {hits} hits");
+        // The fused hull test may pass a ray within rounding of a plane that the other turns
+        // away (then decided as a miss by the solve): rarely.
+        assert!(outcome_differs * 1000 <= n, "{outcome_differs} outcomes differ");
+    }
+}
