@@ -90,6 +90,8 @@ impl ModeRules {
 /// Every choice of a render, resolved once (the command line over the scene file over the
 /// defaults) and checked, with the mesh loaded: what `run` needs and nothing to decide.
 pub(crate) struct RenderJob {
+    /// Show a progress bar on stderr (when it is a terminal).
+    pub(crate) progress: bool,
     pub(crate) plan: RenderPlan,
     pub(crate) source: SceneSource,
     pub(crate) input: scene::Scene,
@@ -160,12 +162,11 @@ impl RenderJob {
             width: plan.width,
             height: plan.height,
             spp: plan.spp,
-            threads: plan.threads,
-            progress: !args.quiet,
             seed: plan.seed,
             packets: args.packets == cli::Switch::On,
         };
         Ok(RenderJob {
+            progress: !args.quiet,
             plan,
             source,
             input,

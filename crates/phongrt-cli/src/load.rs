@@ -54,7 +54,7 @@ pub(crate) fn parse_object_override(s: &str) -> anyhow::Result<(String, ObjectMo
         None => (mode, None),
     };
     // The names are --mode's (and the scene file's `mode`).
-    let mode = match (<SurfaceMode as clap::ValueEnum>::from_str(mode_name, false), alpha) {
+    let mode = match (SurfaceMode::from_name(mode_name).ok_or(()), alpha) {
         (Ok(m), None) => m.with_alpha(phongrt::phong::DEFAULT_ALPHA),
         (Ok(SurfaceMode::Phong), Some(a)) => {
             let Ok(alpha) = a.parse::<f32>() else {

@@ -8,8 +8,8 @@ use clap::Parser;
 
 use cli::{Cli, Command, StitchArgs};
 use phongrt::embree;
-use phongrt_render::stitch::StitchError;
 use phongrt_render as render;
+use phongrt_render::stitch::StitchError;
 
 /// A mistake on the command line (a flag or its value): exit status 2. Everything else (an
 /// input that cannot be read or is invalid, an output that cannot be written) is status 1.

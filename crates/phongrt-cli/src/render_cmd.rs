@@ -1,6 +1,6 @@
 //! `phongrt render`: run a resolved job (its frames, or --compare), write each image and the stats.
 
-use std::io::Write;
+use std::io::{IsTerminal, Write};
 use std::time::Instant;
 
 use anyhow::{bail, Context};
@@ -11,30 +11,72 @@ use crate::job::{RenderJob, Stages};
 use crate::plan::{Output, RenderPlan, StatsTarget};
 use phongrt::embree::Device;
 use phongrt_render::image_out::{self, EncodeOptions};
-use phongrt_render::{self as render, Camera, ObjectMode, RenderExtent, RenderOutput, World};
+use phongrt_render::{self as render, Camera, ObjectMode, RenderExtent, RenderOutput, RenderSettings, World};
 
 pub(crate) fn render_cmd(args: RenderArgs) -> anyhow::Result<()> {
     let t_start = Instant::now();
     let job = RenderJob::resolve(&args, t_start)?;
     let device = Device::new().context("cannot start Embree")?;
+    let pool = render::thread_pool(job.plan.threads)?;
     if args.compare {
-        run_compare(job, &device, t_start)
+        run_compare(job, &device, &pool, t_start)
     } else {
-        run_frames(job, &device, t_start)
+        run_frames(job, &device, &pool, t_start)
     }
+}
+
+/// Render on `pool`, drawing the renderer's progress reports as a bar on stderr when `show`
+/// and stderr is a terminal.
+fn render_with_bar(
+    pool: &rayon::ThreadPool,
+    show: bool,
+    world: &World,
+    camera: &Camera,
+    settings: &RenderSettings,
+    extent: &RenderExtent,
+) -> Result<RenderOutput, render::RenderError> {
+    let bar = if show && std::io::stderr().is_terminal() {
+        let b = indicatif::ProgressBar::new(1);
+        b.set_style(
+            indicatif::ProgressStyle::with_template(
+                "{spinner} rendering [{bar:40}] {percent}% {elapsed_precise} {msg}",
+            )
+            .unwrap_or_else(|_| indicatif::ProgressStyle::default_bar()),
+        );
+        b.enable_steady_tick(std::time::Duration::from_millis(200));
+        b
+    } else {
+        indicatif::ProgressBar::hidden()
+    };
+    let report = |p: render::Progress| {
+        bar.set_length(p.total);
+        bar.set_position(p.done);
+        if let Some(eta) = p.eta() {
+            bar.set_message(format!("eta {:#}", indicatif::HumanDuration(eta)));
+        }
+    };
+    let out = pool.install(|| render::render_extent(world, camera, settings, extent, &report));
+    bar.finish_and_clear();
+    out
 }
 
 /// `--compare`: flat everywhere on the left; on the right each object as a plain render makes
 /// it (the scene file's and --object's per-object mode and alpha); their difference.
-pub(crate) fn run_compare(mut job: RenderJob, device: &Device, t_start: Instant) -> anyhow::Result<()> {
+pub(crate) fn run_compare(
+    mut job: RenderJob,
+    device: &Device,
+    pool: &rayon::ThreadPool,
+    t_start: Instant,
+) -> anyhow::Result<()> {
     let t = Instant::now();
     let flat = job.world(device, Some(ObjectMode::Flat))?;
     let phong = job.world(device, None)?;
     job.stages.build = t.elapsed().as_secs_f64();
     eprintln!("phongrt: {}", phong.effects());
-    let a = render::render(&flat, &job.camera, &job.settings)?;
+    let whole = RenderExtent::default();
+    let a = render_with_bar(pool, job.progress, &flat, &job.camera, &job.settings, &whole)?;
     report("flat", &a);
-    let b = render::render(&phong, &job.camera, &job.settings)?;
+    let b = render_with_bar(pool, job.progress, &phong, &job.camera, &job.settings, &whole)?;
     report("phong", &b);
     let ms = |o: &RenderOutput| o.elapsed.as_secs_f64() * 1e3;
     let img = render::compare_panel(
@@ -55,7 +97,12 @@ pub(crate) fn run_compare(mut job: RenderJob, device: &Device, t_start: Instant)
 }
 
 /// Every frame of the plan (one without --frames), each written as soon as it is rendered.
-pub(crate) fn run_frames(mut job: RenderJob, device: &Device, t_start: Instant) -> anyhow::Result<()> {
+pub(crate) fn run_frames(
+    mut job: RenderJob,
+    device: &Device,
+    pool: &rayon::ThreadPool,
+    t_start: Instant,
+) -> anyhow::Result<()> {
     let t = Instant::now();
     let world = job.world(device, None)?;
     job.stages.build = t.elapsed().as_secs_f64();
@@ -75,7 +122,7 @@ pub(crate) fn run_frames(mut job: RenderJob, device: &Device, t_start: Instant) 
         // Record what the tile is of (its files read before the render), then render, encode and
         // write it.
         let record = plan.crop.map(|_| job.record(k).to_text());
-        let out = render::render_extent(&world, &camera, &job.settings, &extent)?;
+        let out = render_with_bar(pool, job.progress, &world, &camera, &job.settings, &extent)?;
         let t = Instant::now();
         let window = out.window;
         let opts = EncodeOptions {
