@@ -4,7 +4,6 @@ use std::io::{IsTerminal, Write};
 use std::time::Instant;
 
 use anyhow::{bail, Context};
-use glam::Vec3;
 
 use crate::cli::RenderArgs;
 use crate::job::{RenderJob, Stages};
@@ -113,7 +112,7 @@ pub(crate) fn run_frames(
     for (k, output) in plan.outputs() {
         // Compute the frame's camera: an orbit of the eye about the look-at point.
         let camera = match (k, plan.frames) {
-            (Some(k), Some(f)) => orbit(&job.camera, f.orbit_deg * k as f32 / f.count as f32),
+            (Some(k), Some(f)) => job.camera.orbit(f.orbit_deg * k as f32 / f.count as f32),
             _ => job.camera,
         };
         if let Some(p) = camera.problem() {
@@ -147,16 +146,6 @@ pub(crate) fn run_frames(
         frames.push(frame_stats(plan, k, &output, &out, write));
     }
     write_stats(plan, &job.stages, &world, &frames, t_start)
-}
-
-/// The camera turned by `deg` about its up vector, around the look-at point.
-pub(crate) fn orbit(c: &Camera, deg: f32) -> Camera {
-    let axis = c.up.normalize_or_zero();
-    if axis == Vec3::ZERO {
-        return *c;
-    }
-    let q = glam::Quat::from_axis_angle(axis, deg.to_radians());
-    Camera { eye: c.look_at + q * (c.eye - c.look_at), ..*c }
 }
 
 /// Write the encoded image: a file replaced only by a complete one, or stdout, every write checked.
