@@ -26,15 +26,7 @@ fn world(device: &Device) -> World {
 
 fn shot(w: &World) -> phongrt_render::RenderOutput {
     let cam = Camera { eye: Vec3::new(0.0, 0.0, 4.0), look_at: Vec3::ZERO, up: Vec3::Y, fov_y_deg: 40.0 };
-    let s = RenderSettings {
-        width: 32,
-        height: 32,
-        spp: 1,
-        threads: Some(2),
-        progress: false,
-        seed: 0,
-        packets: true,
-    };
+    let s = RenderSettings { width: 32, height: 32, spp: 1, seed: 0, packets: true };
     render(w, &cam, &s).unwrap()
 }
 

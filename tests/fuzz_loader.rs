@@ -305,15 +305,7 @@ fn render_checked(device: &Device, scene: &phongrt::scene::Scene, c: &mut Counts
             }
         };
         let camera = Camera::frame_bounds(world.bounds.0, world.bounds.1, 1.0);
-        let settings = RenderSettings {
-            width: 12,
-            height: 12,
-            spp: 1,
-            threads: Some(1),
-            progress: false,
-            seed: 0,
-            packets: true,
-        };
+        let settings = RenderSettings { width: 12, height: 12, spp: 1, seed: 0, packets: true };
         match render(&world, &camera, &settings) {
             Ok(out) => {
                 c.rendered += 1;

@@ -14,7 +14,7 @@ use phongrt_render::{
 };
 
 fn settings(w: u32) -> RenderSettings {
-    RenderSettings { width: w, height: w, spp: 1, threads: Some(2), progress: false, seed: 0, packets: true }
+    RenderSettings { width: w, height: w, spp: 1, seed: 0, packets: true }
 }
 
 fn camera() -> Camera {

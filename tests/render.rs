@@ -9,10 +9,19 @@ use glam::Vec3;
 use phongrt::embree::Device;
 use phongrt::scene::{uv_sphere, Material, Scene};
 use phongrt_render::scene_file::SceneFile;
-use phongrt_render::{render, Camera, Light, ObjectMode, ObjectSettings, RenderSettings, SurfaceMode, World};
+use phongrt_render::{
+    render, render_extent, Camera, Light, ObjectMode, ObjectSettings, Progress, RenderExtent, RenderOutput,
+    RenderSettings, SurfaceMode, World,
+};
 
-fn settings(w: u32, threads: Option<usize>) -> RenderSettings {
-    RenderSettings { width: w, height: w, spp: 1, threads, progress: false, seed: 0, packets: true }
+fn settings(w: u32) -> RenderSettings {
+    RenderSettings { width: w, height: w, spp: 1, seed: 0, packets: true }
+}
+
+/// Render on a pool of `threads` workers (the caller owns the pool).
+fn render_on(threads: usize, world: &World, camera: &Camera, s: &RenderSettings) -> RenderOutput {
+    let pool = phongrt_render::thread_pool(Some(threads)).unwrap();
+    pool.install(|| render(world, camera, s)).unwrap()
 }
 
 fn sphere_world(device: &Device, seg: u32, rings: u32, mode: ObjectMode) -> World {
@@ -26,7 +35,7 @@ fn camera() -> Camera {
 
 /// Pixels covered by the sphere (not background) and, per image row, the covered half-width.
 fn coverage(world: &World, w: u32) -> (usize, Vec<f32>) {
-    let out = render(world, &camera(), &settings(w, Some(2))).unwrap();
+    let out = render(world, &camera(), &settings(w)).unwrap();
     let bg = world.background;
     let mut count = 0;
     let mut widths = vec![0.0; w as usize];
@@ -108,7 +117,7 @@ fn effects_not_called_for_cost_zero_rays() {
             && plan.ambient_occlusion.is_none()
     );
     assert_eq!(plan.to_string(), "effects: direct lighting");
-    let out = render(&world, &camera(), &settings(64, Some(1))).unwrap();
+    let out = render(&world, &camera(), &settings(64)).unwrap();
     assert_eq!(out.rays.primary, 64 * 64);
     assert_eq!(out.rays.total(), out.rays.primary, "{}", out.rays);
 
@@ -118,7 +127,7 @@ fn effects_not_called_for_cost_zero_rays() {
         radiance: Vec3::ONE,
         shadows: true,
     }];
-    let out = render(&world, &camera(), &settings(64, Some(1))).unwrap();
+    let out = render(&world, &camera(), &settings(64)).unwrap();
     assert!(
         out.rays.shadow > 0
             && out.rays.reflection == 0
@@ -133,12 +142,12 @@ fn effects_not_called_for_cost_zero_rays() {
         ks: Vec3::splat(0.5),
         ..Material::default()
     });
-    let out = render(&world, &camera(), &settings(64, Some(1))).unwrap();
+    let out = render(&world, &camera(), &settings(64)).unwrap();
     assert!(out.rays.reflection > 0 && out.rays.refraction == 0);
     // Glass: refraction.
     world.objects[0].surface =
         phongrt_render::Surface::from_material(&Material { dissolve: 0.2, ni: 1.5, ..Material::default() });
-    let out = render(&world, &camera(), &settings(64, Some(1))).unwrap();
+    let out = render(&world, &camera(), &settings(64)).unwrap();
     // Glass refracts and, by Fresnel, reflects.
     assert!(out.rays.refraction > 0 && out.rays.reflection > 0);
     assert!(world.effects().to_string().contains("refraction (1 objects)"));
@@ -162,13 +171,10 @@ fn images_do_not_depend_on_thread_count() {
         intensity: Vec3::splat(8.0),
         samples: 4,
     });
-    let mut s = settings(96, Some(1));
-    s.spp = 4;
-    let a = render(&world, &camera(), &s).unwrap();
-    s.threads = Some(2);
-    let b = render(&world, &camera(), &s).unwrap();
-    s.threads = Some(7);
-    let c = render(&world, &camera(), &s).unwrap();
+    let s = RenderSettings { spp: 4, ..settings(96) };
+    let a = render_on(1, &world, &camera(), &s);
+    let b = render_on(2, &world, &camera(), &s);
+    let c = render_on(7, &world, &camera(), &s);
     assert_eq!(a.image, b.image);
     assert_eq!(a.image, c.image);
     assert_eq!(a.rays, c.rays);
@@ -197,9 +203,8 @@ fn scene_file_errors_name_file_key_and_problem() {
 
 #[test]
 fn scene_file_mode_takes_the_command_line_mode_names() {
-    use clap::ValueEnum;
-    for &m in SurfaceMode::value_variants() {
-        let name = m.to_possible_value().unwrap().get_name().to_string();
+    for m in SurfaceMode::ALL {
+        let name = m.name();
         let text = format!("[[object]]\nname = \"*\"\nmode = \"{name}\"\n");
         let sf = SceneFile::parse(&text, Path::new("s.toml")).unwrap();
         assert_eq!(sf.objects[0].mode, Some(m), "mode = {name:?}");
@@ -231,7 +236,37 @@ fn no_background_inside_the_closed_bunny_at_slivers() {
         up: Vec3::Y,
         fov_y_deg: 1e-5,
     };
-    let out = render(&world, &camera, &settings(256, Some(2))).unwrap();
+    let out = render(&world, &camera, &settings(256)).unwrap();
     let background = out.image.pixels.iter().filter(|&&p| p == world.background).count();
     assert_eq!(background, 0, "{background} background pixels of {}", out.image.pixels.len());
+}
+
+/// Progress comes per sample pass, not per tile: a tiny image at many samples per pixel (one
+/// 16x16 tile, so one tile is the whole render) reports before it is done, every report within
+/// the total, the samples done never going back, and the last report is the whole render.
+#[test]
+fn progress_reports_samples_done_within_a_tile_and_ends_at_the_total() {
+    let device = Device::new().unwrap();
+    let world = sphere_world(&device, 24, 12, ObjectMode::Phong { alpha: 0.75 });
+    let s = RenderSettings { spp: 4096, ..settings(16) };
+    let reports = std::sync::Mutex::new(Vec::<Progress>::new());
+    let out =
+        render_extent(&world, &camera(), &s, &RenderExtent::default(), &|p| reports.lock().unwrap().push(p))
+            .unwrap();
+    let reports = reports.into_inner().unwrap();
+    let total = 16 * 16 * 4096;
+    let last = reports.last().expect("at least the final report");
+    assert_eq!((last.done, last.total), (total, total));
+    assert_eq!(last.eta(), Some(std::time::Duration::ZERO));
+    assert!(reports.iter().all(|p| p.total == total && p.done <= total));
+    assert!(
+        reports.windows(2).all(|w| w[0].done <= w[1].done),
+        "one tile, one thread: samples done only grow"
+    );
+    // A report comes at most every 100 ms after the first 100 ms: a render this long has some
+    // before its end (each sample pass of 8 rays checks the clock).
+    if out.elapsed.as_secs_f64() > 0.5 {
+        let early = reports.iter().filter(|p| p.done < total).count();
+        assert!(early >= 1, "{} s render, no report before the end", out.elapsed.as_secs_f64());
+    }
 }

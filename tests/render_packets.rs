@@ -14,14 +14,25 @@ use phongrt_render::{
     RenderOutput, RenderSettings, Surface, Window, World,
 };
 
-fn settings(w: u32, h: u32, spp: u32, threads: usize, packets: bool) -> RenderSettings {
-    RenderSettings { width: w, height: h, spp, threads: Some(threads), progress: false, seed: 3, packets }
+fn settings(w: u32, h: u32, spp: u32, packets: bool) -> RenderSettings {
+    RenderSettings { width: w, height: h, spp, seed: 3, packets }
 }
 
-/// Render with packets on and off and check they agree exactly; returns the packet render.
-fn same_both_ways(world: &World, camera: &Camera, s: &RenderSettings, extent: &RenderExtent) -> RenderOutput {
-    let on = render_extent(world, camera, &RenderSettings { packets: true, ..s.clone() }, extent).unwrap();
-    let off = render_extent(world, camera, &RenderSettings { packets: false, ..s.clone() }, extent).unwrap();
+/// Render with packets on and off, on a pool of `threads` workers, and check they agree exactly;
+/// returns the packet render.
+fn same_both_ways(
+    world: &World,
+    camera: &Camera,
+    s: &RenderSettings,
+    extent: &RenderExtent,
+    threads: usize,
+) -> RenderOutput {
+    let pool = phongrt_render::thread_pool(Some(threads)).unwrap();
+    let with = |packets| {
+        let s = RenderSettings { packets, ..s.clone() };
+        pool.install(|| render_extent(world, camera, &s, extent, &|_| {})).unwrap()
+    };
+    let (on, off) = (with(true), with(false));
     let differ = on.image.pixels.iter().zip(&off.image.pixels).filter(|(a, b)| a != b).count();
     assert_eq!(differ, 0, "{differ} of {} pixels differ with packets", on.image.pixels.len());
     assert_eq!(on.alpha, off.alpha);
@@ -69,7 +80,7 @@ fn packets_give_the_single_ray_image_with_every_light_kind_and_effect() {
     let device = Device::new().unwrap();
     let world = busy_world(&device);
     // Odd sizes: blocks at the right and bottom edges have lanes outside the frame.
-    let out = same_both_ways(&world, &camera(), &settings(61, 47, 4, 2, true), &RenderExtent::default());
+    let out = same_both_ways(&world, &camera(), &settings(61, 47, 4, true), &RenderExtent::default(), 2);
     assert!(out.rays.shadow > 0 && out.rays.ambient_occlusion > 0 && out.rays.terminator > 0, "{}", out.rays);
     // A glossy mirror sphere: reflection rays, specular lobes; their shadows go one by one.
     let mut world = world;
@@ -79,12 +90,12 @@ fn packets_give_the_single_ray_image_with_every_light_kind_and_effect() {
         ns: 40.0,
         ..Material::default()
     });
-    let out = same_both_ways(&world, &camera(), &settings(40, 40, 1, 1, true), &RenderExtent::default());
+    let out = same_both_ways(&world, &camera(), &settings(40, 40, 1, true), &RenderExtent::default(), 1);
     assert!(out.rays.reflection > 0 && out.rays.specular > 0, "{}", out.rays);
     // Glass: shadow rays pass through transmissive surfaces, one ray per surface.
     world.objects[0].surface =
         Surface::from_material(&Material { dissolve: 0.3, ni: 1.5, ..Material::default() });
-    let out = same_both_ways(&world, &camera(), &settings(40, 40, 1, 2, true), &RenderExtent::default());
+    let out = same_both_ways(&world, &camera(), &settings(40, 40, 1, true), &RenderExtent::default(), 2);
     assert!(out.rays.refraction > 0, "{}", out.rays);
 }
 
@@ -92,14 +103,14 @@ fn packets_give_the_single_ray_image_with_every_light_kind_and_effect() {
 fn packet_renders_of_a_crop_with_alpha_are_the_window_of_the_whole_frame() {
     let device = Device::new().unwrap();
     let world = busy_world(&device);
-    let s = settings(61, 47, 4, 2, true);
+    let s = settings(61, 47, 4, true);
     let alpha = RenderExtent { crop: None, alpha: true };
-    let whole = same_both_ways(&world, &camera(), &s, &alpha);
+    let whole = same_both_ways(&world, &camera(), &s, &alpha, 2);
     // Crop corners off the 4x2 block grid, on 1 and 3 threads.
     for (threads, (x0, y0, x1, y1)) in [(1, (10, 5, 43, 40)), (3, (3, 1, 58, 46)), (2, (0, 0, 5, 3))] {
         let crop = Window { x0, y0, x1, y1, full_width: 61, full_height: 47 };
-        let s = RenderSettings { threads: Some(threads), ..s.clone() };
-        let part = same_both_ways(&world, &camera(), &s, &RenderExtent { crop: Some(crop), alpha: true });
+        let part =
+            same_both_ways(&world, &camera(), &s, &RenderExtent { crop: Some(crop), alpha: true }, threads);
         let (w, a) = (whole.alpha.as_ref().unwrap(), part.alpha.as_ref().unwrap());
         for y in y0..y1 {
             for x in x0..x1 {
@@ -129,7 +140,7 @@ fn packets_give_the_single_ray_image_on_real_meshes_flat_and_phong() {
             .unwrap();
             let (lo, hi) = world.bounds;
             let camera = Camera::frame_bounds(lo, hi, 1.0);
-            same_both_ways(&world, &camera, &settings(128, 128, 1, 2, true), &RenderExtent::default());
+            same_both_ways(&world, &camera, &settings(128, 128, 1, true), &RenderExtent::default(), 2);
         }
     }
 }

@@ -63,15 +63,7 @@ fn world(device: &Device, scene: &Scene, s: &Setup) -> World {
 /// Render as the command line frames it, and count the steps.
 fn steps(world: &World) -> usize {
     let camera = Camera::frame_bounds(world.bounds.0, world.bounds.1, 1.0);
-    let settings = RenderSettings {
-        width: SIZE,
-        height: SIZE,
-        spp: 16,
-        threads: None,
-        progress: false,
-        seed: 0,
-        packets: true,
-    };
+    let settings = RenderSettings { width: SIZE, height: SIZE, spp: 16, seed: 0, packets: true };
     let out = render(world, &camera, &settings).unwrap();
     let s = out.image.shading_steps(8.0, 3);
     println!("{} steps, largest {:.1}/255, {} interior pixels", s.count, s.largest, s.interior);
@@ -273,15 +265,7 @@ fn ground_plane_receives_the_cast_shadow_and_leaves_the_framing_alone() {
     let lit = Vec3::new(-1.5, lo, 1.5);
     let brightness = |p: Vec3| {
         let camera = Camera { eye: p + Vec3::Y * 0.5, look_at: p, up: Vec3::Z, fov_y_deg: 1.0 };
-        let s = RenderSettings {
-            width: 4,
-            height: 4,
-            spp: 1,
-            threads: Some(1),
-            progress: false,
-            seed: 0,
-            packets: true,
-        };
+        let s = RenderSettings { width: 4, height: 4, spp: 1, seed: 0, packets: true };
         let out = render(&w, &camera, &s).unwrap();
         out.image.pixels.iter().map(|c| c.x).sum::<f32>() / 16.0
     };

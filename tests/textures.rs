@@ -71,15 +71,7 @@ fn render_quad(obj: &Path) -> (phongrt_render::RenderOutput, World) {
     world.ambient = Vec3::ZERO;
     world.lights = vec![Light::Directional { direction: Vec3::Z, radiance: Vec3::ONE, shadows: false }];
     let cam = Camera { eye: Vec3::new(0.0, 0.0, 3.0), look_at: Vec3::ZERO, up: Vec3::Y, fov_y_deg: 30.0 };
-    let s = RenderSettings {
-        width: 32,
-        height: 32,
-        spp: 1,
-        threads: Some(1),
-        progress: false,
-        seed: 0,
-        packets: true,
-    };
+    let s = RenderSettings { width: 32, height: 32, spp: 1, seed: 0, packets: true };
     (render(&world, &cam, &s).unwrap(), world)
 }
 
@@ -127,15 +119,7 @@ fn untextured_objects_make_no_texture_lookups() {
     let scene = phongrt::scene::Scene::from_mesh(phongrt::scene::uv_sphere(12, 6, 1.0));
     let world = World::from_scene(&device, &scene, |_, _| ObjectSettings::new(ObjectMode::Flat)).unwrap();
     let cam = Camera { eye: Vec3::new(0.0, 0.0, 4.0), look_at: Vec3::ZERO, up: Vec3::Y, fov_y_deg: 40.0 };
-    let s = RenderSettings {
-        width: 16,
-        height: 16,
-        spp: 1,
-        threads: Some(1),
-        progress: false,
-        seed: 0,
-        packets: true,
-    };
+    let s = RenderSettings { width: 16, height: 16, spp: 1, seed: 0, packets: true };
     let out = render(&world, &cam, &s).unwrap();
     assert_eq!(out.rays.texture, 0);
     assert!(!world.effects().to_string().contains("textures"));

@@ -89,7 +89,7 @@ pub struct RenderArgs {
     #[arg(long)]
     pub spp: Option<u32>,
     /// Surface mode for every object.
-    #[arg(long, value_enum, default_value_t = SurfaceMode::Phong)]
+    #[arg(long, value_parser = parse_mode, default_value = "phong")]
     pub mode: SurfaceMode,
     /// Phong shape factor in [0, 1] (0 = flat, 1 = full Phong tessellation; 0.75 is Boubekeur &
     /// Alexa's recommendation, which bulges less).
@@ -217,6 +217,14 @@ pub struct BenchArgs {
     /// the tiny triangles of a fine pre-tessellation, at some cost in speed.
     #[arg(long)]
     pub robust: bool,
+}
+
+/// Parse a surface mode name (`--mode`; the scene file's `mode` takes the same names).
+pub fn parse_mode(s: &str) -> Result<SurfaceMode, String> {
+    SurfaceMode::from_name(s).ok_or_else(|| {
+        let names: Vec<&str> = SurfaceMode::ALL.iter().map(|m| m.name()).collect();
+        format!("{s:?} is not one of {}", names.join(", "))
+    })
 }
 
 /// Parse a shading-normal rule name.

@@ -67,6 +67,17 @@ pub enum CameraProblem {
 }
 
 impl Camera {
+    /// The camera turned by `deg` about its up vector, around the look-at point (itself when
+    /// the up vector is zero).
+    pub fn orbit(&self, deg: f32) -> Camera {
+        let axis = self.up.normalize_or_zero();
+        if axis == Vec3::ZERO {
+            return *self;
+        }
+        let q = glam::Quat::from_axis_angle(axis, deg.to_radians());
+        Camera { eye: self.look_at + q * (self.eye - self.look_at), ..*self }
+    }
+
     /// What is wrong with this camera, if anything (`frame` returns `None` exactly then, for a
     /// positive finite aspect ratio).
     pub fn problem(&self) -> Option<CameraProblem> {

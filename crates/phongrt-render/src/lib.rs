@@ -10,14 +10,14 @@ pub mod image_out;
 pub mod render_record;
 pub mod scene_file;
 pub mod smoothness;
+pub mod stitch;
 pub mod temp_file;
 pub mod text;
 pub mod texture;
+mod tracer;
 pub mod world;
 
-use std::io::IsTerminal;
-use std::sync::atomic::{AtomicU64, Ordering};
-use std::time::{Duration, Instant};
+use std::time::Duration;
 
 use glam::Vec3;
 use rayon::prelude::*;
@@ -29,7 +29,9 @@ pub use world::{
     Rng, Surface, SurfaceMode, Terminator, World,
 };
 
-use phongrt::embree::{self, EmbreeError, PhongMeshError, Ray, PACKET8};
+use phongrt::embree::{self, EmbreeError, PhongMeshError};
+pub use tracer::Progress;
+use tracer::TILE;
 
 /// Why a world could not be built, a render run, or an image written. The cause of a wrapped
 /// error is its `source()`, so a caller printing the chain gets one line.
@@ -118,10 +120,6 @@ pub struct RenderSettings {
     pub height: u32,
     /// Samples per pixel (stratified on a square grid when a perfect square).
     pub spp: u32,
-    /// Worker threads; `None` = all cores. The image does not depend on it.
-    pub threads: Option<usize>,
-    /// Show a progress bar on stderr (only when stderr is a terminal).
-    pub progress: bool,
     /// Seed of the per-pixel sample pattern.
     pub seed: u64,
     /// Trace camera rays and their hard shadows in coherent 8-ray packets from 4x2 pixel
@@ -131,15 +129,7 @@ pub struct RenderSettings {
 
 impl Default for RenderSettings {
     fn default() -> Self {
-        RenderSettings {
-            width: 640,
-            height: 480,
-            spp: 1,
-            threads: None,
-            progress: true,
-            seed: 0,
-            packets: true,
-        }
+        RenderSettings { width: 640, height: 480, spp: 1, seed: 0, packets: true }
     }
 }
 
@@ -175,7 +165,7 @@ impl RayCounts {
             + self.environment
     }
 
-    fn add(&mut self, o: &RayCounts) {
+    pub(crate) fn add(&mut self, o: &RayCounts) {
         self.primary += o.primary;
         self.shadow += o.shadow;
         self.reflection += o.reflection;
@@ -259,11 +249,9 @@ pub fn memory_estimate(pixels: u64) -> u64 {
     pixels * PEAK_BYTES_PER_PIXEL
 }
 
-const TILE: u32 = 16;
-
 /// A hash of the pixel, sample and seed: the sample pattern depends on nothing else, so the
 /// image is the same whatever the thread count or tile order.
-fn sample_hash(x: u32, y: u32, s: u32, seed: u64) -> u64 {
+pub(crate) fn sample_hash(x: u32, y: u32, s: u32, seed: u64) -> u64 {
     let mut z = seed ^ ((x as u64) << 40 | (y as u64) << 16 | s as u64).wrapping_mul(0x9E37_79B9_7F4A_7C15);
     z = (z ^ (z >> 30)).wrapping_mul(0xBF58_476D_1CE4_E5B9);
     z = (z ^ (z >> 27)).wrapping_mul(0x94D0_49BB_1331_11EB);
@@ -288,224 +276,58 @@ pub fn sample_offset(x: u32, y: u32, s: u32, spp: u32, seed: u64) -> (f32, f32) 
     }
 }
 
-/// Render `world` through `camera`: the whole frame, no alpha.
+/// Render `world` through `camera`: the whole frame, no alpha, no progress reports, on the
+/// current rayon thread pool (see [`thread_pool`]).
 pub fn render(
     world: &World,
     camera: &Camera,
     settings: &RenderSettings,
 ) -> Result<RenderOutput, RenderError> {
-    render_extent(world, camera, settings, &RenderExtent::default())
+    render_extent(world, camera, settings, &RenderExtent::default(), &|_| {})
 }
 
-/// Render a window of the frame (and its alpha, if asked): each pixel is exactly the pixel of
-/// the full-frame render, whatever the window, tiling and thread count, since the samples of a
-/// pixel depend only on its position in the full frame and the seed.
+/// Render a window of the frame (and its alpha, if asked) on the current rayon thread pool
+/// (the caller's: run it inside [`rayon::ThreadPool::install`] to choose the threads; see
+/// [`thread_pool`]), calling `progress` from the worker threads at most every 100 ms and once
+/// at the end. Each pixel is exactly the pixel of the full-frame render, whatever the window,
+/// tiling and thread count, since the samples of a pixel depend only on its position in the
+/// full frame and the seed.
 pub fn render_extent(
     world: &World,
     camera: &Camera,
     settings: &RenderSettings,
     extent: &RenderExtent,
+    progress: &(dyn Fn(Progress) + Sync),
 ) -> Result<RenderOutput, RenderError> {
-    let (fw, fh) = (settings.width, settings.height);
-    if fw == 0 || fh == 0 || fw > 1 << 15 || fh > 1 << 15 {
-        return Err(RenderError::ImageSize { width: fw, height: fh });
-    }
-    let win = extent.crop.unwrap_or(Window::full(fw, fh));
-    if win.full_width != fw
-        || win.full_height != fh
-        || win.x0 >= win.x1
-        || win.y0 >= win.y1
-        || win.x1 > fw
-        || win.y1 > fh
-    {
-        return Err(RenderError::Crop { window: win.to_text(), width: fw, height: fh });
-    }
-    if settings.threads == Some(0) {
-        return Err(RenderError::ZeroThreads);
-    }
-    let (w, h) = (win.width(), win.height());
-    if settings.spp == 0 || settings.spp > 1 << 16 {
-        return Err(RenderError::Samples(settings.spp));
-    }
-    let frame = camera.frame(fw as f32 / fh as f32).ok_or(RenderError::Camera)?;
+    // Check the request.
+    let (win, frame) = tracer::check(camera, settings, extent)?;
 
-    let tiles_x = w.div_ceil(TILE);
-    let tiles_y = h.div_ceil(TILE);
-    let n_tiles = (tiles_x * tiles_y) as u64;
-    let bar = if settings.progress && std::io::stderr().is_terminal() {
-        let b = indicatif::ProgressBar::new(n_tiles);
-        b.set_style(
-            indicatif::ProgressStyle::with_template(
-                "{spinner} rendering [{bar:40}] {percent}% {elapsed_precise} eta {eta}",
-            )
-            .unwrap_or_else(|_| indicatif::ProgressStyle::default_bar()),
-        );
-        b
-    } else {
-        indicatif::ProgressBar::hidden()
-    };
-    let done = AtomicU64::new(0);
+    // Trace the tiles in parallel.
+    let tiles_x = win.width().div_ceil(TILE);
+    let n_tiles = tiles_x * win.height().div_ceil(TILE);
+    let meter = tracer::Meter::new(win.width() as u64 * win.height() as u64 * settings.spp as u64, progress);
+    let tracer = tracer::Tracer { world, frame, settings, alpha: extent.alpha, win, tiles_x, meter: &meter };
+    let tiles: Vec<_> = (0..n_tiles).into_par_iter().map(|t| tracer.trace_tile(t)).collect();
+    let elapsed = meter.finish();
 
-    let mut pool = rayon::ThreadPoolBuilder::new().start_handler(|_| embree::set_flush_denormals());
-    if let Some(t) = settings.threads {
-        pool = pool.num_threads(t);
-    }
-    let pool = pool.build().map_err(RenderError::Threads)?;
-    let threads = pool.current_num_threads();
-
-    let start = Instant::now();
-    let tiles: Vec<TileResult> = pool.install(|| {
-        (0..tiles_x * tiles_y)
-            .into_par_iter()
-            .map(|t| {
-                let (tx, ty) = (t % tiles_x, t / tiles_x);
-                let mut counts = RayCounts::default();
-                let mut clamped = 0u64;
-                // Tile corners in window coordinates; pixels are addressed in the full frame.
-                let x0 = tx * TILE;
-                let y0 = ty * TILE;
-                let (tw, th) = ((x0 + TILE).min(w) - x0, (y0 + TILE).min(h) - y0);
-                let mut out = vec![Vec3::ZERO; (tw * th) as usize];
-                let mut alpha = if extent.alpha { vec![0.0; out.len()] } else { Vec::new() };
-                let mut clamp = |c: Vec3| {
-                    if c.is_finite() && c.max_element() <= MAX_SAMPLE_RADIANCE {
-                        c
-                    } else {
-                        clamped += 1;
-                        let c = Vec3::select(c.cmpeq(c), c, Vec3::ZERO); // NaN -> 0
-                        c.min(Vec3::splat(MAX_SAMPLE_RADIANCE))
-                    }
-                };
-                let camera_ray = |x: u32, y: u32, s: u32| {
-                    let (ox, oy) = sample_offset(x, y, s, settings.spp, settings.seed);
-                    Ray::new(frame.eye, frame.direction(x as f32 + ox, y as f32 + oy, fw, fh))
-                };
-                let sample_rng =
-                    |x: u32, y: u32, s: u32| Rng::new(sample_hash(x, y, s, settings.seed ^ 0x5eed));
-                // The tile in frame coordinates.
-                let (fx0, fy0) = (win.x0 + x0, win.y0 + y0);
-                let (fx1, fy1) = (fx0 + tw, fy0 + th);
-                if settings.packets {
-                    // Packets of 4x2 pixels on a grid fixed to the frame: a block traces every
-                    // lane inside the frame whatever the tile or crop, and keeps the lanes in
-                    // the tile, so its packets are the same in every tiling.
-                    for by in (fy0 - fy0 % 2..fy1).step_by(2) {
-                        for bx in (fx0 - fx0 % 4..fx1).step_by(4) {
-                            let lane = |k: usize| (bx + k as u32 % 4, by + k as u32 / 4);
-                            let (mut trace, mut inside) = (0u8, 0u8);
-                            for k in 0..PACKET8 {
-                                let (x, y) = lane(k);
-                                if x < fw && y < fh {
-                                    trace |= 1 << k;
-                                    if (fx0..fx1).contains(&x) && (fy0..fy1).contains(&y) {
-                                        inside |= 1 << k;
-                                    }
-                                }
-                            }
-                            let mut sums = [Vec3::ZERO; PACKET8];
-                            let mut hits = [0u32; PACKET8];
-                            for s in 0..settings.spp {
-                                let rays = std::array::from_fn(|k| {
-                                    let (x, y) = lane(k);
-                                    camera_ray(x, y, s)
-                                });
-                                let mut shade = inside;
-                                if extent.alpha {
-                                    let cover = world.scene.intersect8_rays(&rays, trace, true);
-                                    for (k, c) in
-                                        cover.iter().enumerate().filter(|(k, _)| inside & (1 << k) != 0)
-                                    {
-                                        counts.coverage += 1;
-                                        match c {
-                                            Some(_) => hits[k] += 1,
-                                            None => shade &= !(1 << k),
-                                        }
-                                    }
-                                }
-                                let mut rngs = std::array::from_fn(|k| {
-                                    let (x, y) = lane(k);
-                                    sample_rng(x, y, s)
-                                });
-                                let c = world.shade8(&rays, trace, shade, &mut counts, &mut rngs);
-                                for k in (0..PACKET8).filter(|k| shade & (1 << k) != 0) {
-                                    sums[k] += clamp(c[k]);
-                                }
-                            }
-                            for k in (0..PACKET8).filter(|k| inside & (1 << k) != 0) {
-                                let (x, y) = lane(k);
-                                let i = ((y - fy0) * tw + (x - fx0)) as usize;
-                                out[i] = sums[k] / settings.spp as f32;
-                                if extent.alpha {
-                                    alpha[i] = hits[k] as f32 / settings.spp as f32;
-                                }
-                            }
-                        }
-                    }
-                } else {
-                    for y in fy0..fy1 {
-                        for x in fx0..fx1 {
-                            let mut sum = Vec3::ZERO;
-                            let mut hits = 0u32;
-                            for s in 0..settings.spp {
-                                let ray = camera_ray(x, y, s);
-                                if extent.alpha {
-                                    counts.coverage += 1;
-                                    if world.scene.intersect1(ray).is_none() {
-                                        continue;
-                                    }
-                                    hits += 1;
-                                }
-                                let mut rng = sample_rng(x, y, s);
-                                sum += clamp(world.shade(ray, &mut counts, &mut rng));
-                            }
-                            let i = ((y - fy0) * tw + (x - fx0)) as usize;
-                            out[i] = sum / settings.spp as f32;
-                            if extent.alpha {
-                                alpha[i] = hits as f32 / settings.spp as f32;
-                            }
-                        }
-                    }
-                }
-                let k = done.fetch_add(1, Ordering::Relaxed) + 1;
-                if k % 8 == 0 || k == n_tiles {
-                    bar.set_position(k);
-                }
-                TileResult { pixels: out, alpha, counts, clamped }
-            })
-            .collect()
-    });
-    let elapsed = start.elapsed();
-    bar.finish_and_clear();
-
-    // Assemble tiles in order.
-    let mut image = Image::new(w, h);
-    let mut alpha = extent.alpha.then(|| vec![0f32; w as usize * h as usize]);
-    let mut rays = RayCounts::default();
-    let mut clamped_samples = 0;
-    for (t, tile) in tiles.iter().enumerate() {
-        let t = t as u32;
-        let (x0, y0) = ((t % tiles_x) * TILE, (t / tiles_x) * TILE);
-        let tw = (x0 + TILE).min(w) - x0;
-        for (i, c) in tile.pixels.iter().enumerate() {
-            let i = i as u32;
-            let (x, y) = (x0 + i % tw, y0 + i / tw);
-            image.set(x, y, *c);
-            if let Some(a) = alpha.as_mut() {
-                a[y as usize * w as usize + x as usize] = tile.alpha[i as usize];
-            }
-        }
-        rays.add(&tile.counts);
-        clamped_samples += tile.clamped;
-    }
+    // Assemble the tiles in order.
+    let (image, alpha, rays, clamped_samples) = tracer::assemble(&tiles, win, tiles_x, extent.alpha);
+    let threads = rayon::current_num_threads();
     Ok(RenderOutput { image, alpha, window: win, rays, elapsed, threads, clamped_samples })
 }
 
-/// One 16x16 tile's pixels, alpha and counts.
-struct TileResult {
-    pixels: Vec<Vec3>,
-    alpha: Vec<f32>,
-    counts: RayCounts,
-    clamped: u64,
+/// A thread pool to render on: `threads` workers (`None` = one per core), each running in the
+/// float mode Embree asks for (flush-to-zero and denormals-are-zero) before it traces.
+// This is the one place the renderer sets the float mode of its threads: when the Embree layer
+// offers a pool builder of its own, this becomes a call to it.
+pub fn thread_pool(threads: Option<usize>) -> Result<rayon::ThreadPool, RenderError> {
+    let mut pool = rayon::ThreadPoolBuilder::new().start_handler(|_| embree::set_flush_denormals());
+    match threads {
+        Some(0) => return Err(RenderError::ZeroThreads),
+        Some(t) => pool = pool.num_threads(t),
+        None => {}
+    }
+    pool.build().map_err(RenderError::Threads)
 }
 
 /// Side by side: `left | right | difference`, each labelled (e.g. with its mode and time).

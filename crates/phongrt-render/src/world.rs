@@ -17,7 +17,7 @@ use phongrt::scene as sc;
 /// A surface mode by name, the one set of names the command line (`--mode`, `--object
 /// NAME=MODE`) and scene files (`mode = "..."`) accept: `flat` and `phong`. Phong's shape
 /// factor comes separately; [`SurfaceMode::with_alpha`] joins them into an [`ObjectMode`].
-#[derive(Clone, Copy, Debug, PartialEq, Eq, clap::ValueEnum, serde::Deserialize)]
+#[derive(Clone, Copy, Debug, PartialEq, Eq, serde::Deserialize)]
 #[serde(rename_all = "lowercase")]
 pub enum SurfaceMode {
     /// Embree's native flat triangles, shaded with interpolated vertex normals.
@@ -27,6 +27,22 @@ pub enum SurfaceMode {
 }
 
 impl SurfaceMode {
+    /// Every mode, in the order `--help` lists them.
+    pub const ALL: [SurfaceMode; 2] = [SurfaceMode::Flat, SurfaceMode::Phong];
+
+    /// The mode's name: `flat` or `phong`.
+    pub fn name(self) -> &'static str {
+        match self {
+            SurfaceMode::Flat => "flat",
+            SurfaceMode::Phong => "phong",
+        }
+    }
+
+    /// The mode named `s` (one of [`SurfaceMode::name`]'s).
+    pub fn from_name(s: &str) -> Option<Self> {
+        Self::ALL.into_iter().find(|m| m.name() == s)
+    }
+
     /// The object mode: flat, or Phong with shape factor `alpha`.
     pub fn with_alpha(self, alpha: f32) -> ObjectMode {
         match self {

@@ -1,0 +1,93 @@
+//! `phongrt info`: what a mesh is made of, as text or JSON.
+
+use anyhow::Context;
+
+use crate::cli::InfoArgs;
+use crate::load::{load, load_options};
+use phongrt::embree::{self, Device};
+use phongrt::scene;
+
+/// The largest patch offset from its flat triangle relative to the triangle's width, over the
+/// scene's meshes at the default alpha with straight creases: `(ratio, mesh, triangle)`.
+pub(crate) fn largest_deviation(s: &scene::Scene) -> Option<(f64, usize, usize)> {
+    let alpha = phongrt::phong::DEFAULT_ALPHA as f64;
+    s.meshes
+        .iter()
+        .enumerate()
+        .filter_map(|(k, m)| {
+            phongrt::mesh::max_patch_deviation(
+                &m.positions,
+                &m.normals,
+                &m.indices,
+                &m.straight_edges(),
+                alpha,
+            )
+            .map(|(r, t)| (r, k, t))
+        })
+        .max_by(|a, b| a.0.total_cmp(&b.0))
+}
+
+pub(crate) fn info_cmd(args: InfoArgs) -> anyhow::Result<()> {
+    let s = load(&args.scene, &load_options(&args.load, args.load.crease_angle)?)?;
+    let device = Device::new().context("cannot start Embree")?;
+    let (major, minor, patch) = device.version();
+    let st = &s.stats;
+    let (lo, hi) = s.bounds();
+    if args.json {
+        let doc = serde_json::json!({
+            "file": args.scene.display().to_string(),
+            "embree": { "version": format!("{major}.{minor}.{patch}"), "headers": embree::header_version().to_string(), "isa": device.isa().to_string() },
+            "objects": s.meshes.len(),
+            "materials": s.materials.len(),
+            "vertices": st.vertices,
+            "triangles": st.triangles,
+            "normals": { "from_file": st.normals_from_file, "computed": st.normals_computed },
+            "edges": { "smooth": st.smooth_edges, "crease": st.crease_edges, "border": st.border_edges, "nonmanifold": st.nonmanifold_edges },
+            "degenerate_skipped": st.degenerate_skipped,
+            "largest_deviation": largest_deviation(&s).map(|(r, m, t)| serde_json::json!({ "ratio": r, "object": s.meshes[m].name, "triangle": t })),
+            "duplicates_dropped": st.duplicates_dropped,
+            "bounds": [lo.to_array(), hi.to_array()],
+            "meshes": s.meshes.iter().map(|m| serde_json::json!({
+                "name": m.name, "vertices": m.positions.len(), "triangles": m.indices.len(),
+                "normals": format!("{:?}", m.normals_source),
+            })).collect::<Vec<_>>(),
+        });
+        println!("{}", serde_json::to_string_pretty(&doc)?);
+        return Ok(());
+    }
+    println!("file: {}", args.scene.display());
+    println!("embree: {major}.{minor}.{patch} (headers {}), ISA {}", embree::header_version(), device.isa());
+    println!("objects: {}", s.meshes.len());
+    println!("materials: {}", s.materials.len());
+    println!("vertices: {}", st.vertices);
+    println!("triangles: {}", st.triangles);
+    println!("normals: {} from file, {} computed", st.normals_from_file, st.normals_computed);
+    println!(
+        "edges: {} smooth, {} crease, {} border, {} non-manifold",
+        st.smooth_edges, st.crease_edges, st.border_edges, st.nonmanifold_edges
+    );
+    if st.degenerate_skipped > 0 {
+        println!("skipped: {} degenerate triangles", st.degenerate_skipped);
+    }
+    if st.duplicates_dropped > 0 {
+        println!("dropped: {} duplicate triangles", st.duplicates_dropped);
+    }
+    println!("bounds: [{:.6}, {:.6}, {:.6}] .. [{:.6}, {:.6}, {:.6}]", lo.x, lo.y, lo.z, hi.x, hi.y, hi.z);
+    if let Some((ratio, mesh, tri)) = largest_deviation(&s) {
+        println!(
+            "deviation: largest patch offset from its flat triangle {ratio:.4} × the triangle's width (smallest altitude; alpha {}, object {:?}, triangle {tri})",
+            phongrt::phong::DEFAULT_ALPHA,
+            s.meshes[mesh].name
+        );
+    }
+    for m in &s.meshes {
+        println!(
+            "  object {:?}: {} vertices, {} triangles, normals {:?}",
+            m.name,
+            m.positions.len(),
+            m.indices.len(),
+            m.normals_source
+        );
+    }
+    Ok(())
+}

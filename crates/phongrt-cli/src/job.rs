@@ -1,0 +1,415 @@
+//! A render job: the scene source, the mesh, the per-object modes, the camera and the world, resolved once from the command line over the scene file over the defaults.
+
+use std::path::{Path, PathBuf};
+use std::time::Instant;
+
+use anyhow::{bail, Context};
+use glam::Vec3;
+
+use crate::cli::{self, RenderArgs};
+use crate::load::{load, load_options, parse_object_override};
+use crate::plan::{plan, RenderPlan};
+use crate::Usage;
+use phongrt::embree::Device;
+use phongrt::scene::{self, LoadOptions};
+use phongrt_render::render_record::{Digest, RenderRecord};
+use phongrt_render::scene_file::{self, LightSection, SceneFile};
+use phongrt_render::{
+    self as render, AmbientOcclusion, Camera, Light, ObjectMode, ObjectSettings, RenderSettings, World,
+};
+
+/// Stage times of one run, in seconds.
+#[derive(Clone, Copy, Debug, Default)]
+pub(crate) struct Stages {
+    pub(crate) load: f64,
+    pub(crate) build: f64,
+}
+
+/// The OBJ to render and the scene file that goes with it: a .toml scene names its OBJ; an OBJ
+/// may take a scene file with --scene-file.
+pub(crate) struct SceneSource {
+    pub(crate) obj: PathBuf,
+    pub(crate) file: Option<SceneFile>,
+    /// The scene file's path, for messages and relative paths (empty without one).
+    pub(crate) file_path: PathBuf,
+}
+
+impl SceneSource {
+    pub(crate) fn resolve(args: &RenderArgs) -> anyhow::Result<SceneSource> {
+        let is_toml = args.scene.extension().is_some_and(|e| e.eq_ignore_ascii_case("toml"));
+        if is_toml {
+            let sf = SceneFile::load(&args.scene)?;
+            let obj = sf.obj_path(&args.scene).with_context(|| {
+                format!("{}: obj: missing (the OBJ file to render)", args.scene.display())
+            })?;
+            return Ok(SceneSource { obj, file: Some(sf), file_path: args.scene.clone() });
+        }
+        let file = args.scene_file.as_deref().map(SceneFile::load).transpose()?;
+        Ok(SceneSource {
+            obj: args.scene.clone(),
+            file,
+            file_path: args.scene_file.clone().unwrap_or_default(),
+        })
+    }
+}
+
+/// Which mode each object gets: the scene file's `[[object]]` entries over --mode/--alpha,
+/// and --object over both.
+#[derive(Clone, Debug)]
+pub(crate) struct ModeRules {
+    pub(crate) default: ObjectMode,
+    pub(crate) file_objects: Vec<scene_file::ObjectSection>,
+    pub(crate) overrides: Vec<(String, ObjectMode)>,
+    pub(crate) straight_creases: bool,
+}
+
+impl ModeRules {
+    /// The settings of `mesh`, or `forced` mode for every object.
+    pub(crate) fn settings(&self, forced: Option<ObjectMode>, mesh: &scene::Mesh) -> ObjectSettings {
+        let straight_creases = self.straight_creases;
+        if let Some(mode) = forced {
+            return ObjectSettings { mode, straight_creases };
+        }
+        let mut mode = self.default;
+        for o in self.file_objects.iter().filter(|o| o.name == "*" || o.name == mesh.name) {
+            match (o.mode, o.alpha) {
+                (Some(m), a) => mode = m.with_alpha(a.unwrap_or(phongrt::phong::DEFAULT_ALPHA)),
+                (None, Some(a)) => mode = ObjectMode::Phong { alpha: a },
+                (None, None) => {}
+            }
+        }
+        for (name, m) in &self.overrides {
+            if name == "*" || *name == mesh.name {
+                mode = *m;
+            }
+        }
+        ObjectSettings { mode, straight_creases }
+    }
+}
+
+/// Every choice of a render, resolved once (the command line over the scene file over the
+/// defaults) and checked, with the mesh loaded: what `run` needs and nothing to decide.
+pub(crate) struct RenderJob {
+    /// Show a progress bar on stderr (when it is a terminal).
+    pub(crate) progress: bool,
+    pub(crate) plan: RenderPlan,
+    pub(crate) source: SceneSource,
+    pub(crate) input: scene::Scene,
+    pub(crate) load: LoadOptions,
+    pub(crate) modes: ModeRules,
+    pub(crate) settings: RenderSettings,
+    pub(crate) shading: phongrt::phong::ShadingNormal,
+    pub(crate) terminator: render::Terminator,
+    pub(crate) camera: Camera,
+    pub(crate) ground: Option<render::Ground>,
+    pub(crate) stages: Stages,
+}
+
+impl RenderJob {
+    pub(crate) fn resolve(args: &RenderArgs, t_start: Instant) -> anyhow::Result<RenderJob> {
+        // Resolve the scene source and every option that needs no mesh.
+        let source = SceneSource::resolve(args)?;
+        let sf = source.file.as_ref();
+        let plan = plan(args, sf)?;
+        let overrides: Vec<(String, ObjectMode)> =
+            args.objects.iter().map(|s| parse_object_override(s)).collect::<anyhow::Result<_>>()?;
+
+        // Load the mesh, and check the object names given for it.
+        let crease = sf.and_then(|s| s.crease_angle).unwrap_or(args.load.crease_angle);
+        let load_opts = load_options(&args.load, crease)?;
+        let input = load(&source.obj, &load_opts)?;
+        for (name, _) in &overrides {
+            if !(name == "*" || input.meshes.iter().any(|m| m.name == *name)) {
+                usage!(
+                    "--object {name:?}: no such object (objects: {})",
+                    input.meshes.iter().map(|m| m.name.as_str()).collect::<Vec<_>>().join(", ")
+                );
+            }
+        }
+        if let Some(sf) = sf {
+            sf.check_object_names(&source.file_path, input.meshes.iter().map(|m| m.name.as_str()))?;
+        }
+        let stages = Stages { load: t_start.elapsed().as_secs_f64(), ..Stages::default() };
+
+        // Resolve the surfaces: modes, shading normal, terminator.
+        let modes = ModeRules {
+            default: args.mode.with_alpha(args.alpha),
+            file_objects: sf.map(|s| s.objects.clone()).unwrap_or_default(),
+            overrides,
+            straight_creases: !args.open_creases,
+        };
+        let sf_render = sf.map(|s| &s.render);
+        let shading = args
+            .shading
+            .or(sf_render
+                .and_then(|r| r.shading.as_deref())
+                .and_then(phongrt::phong::ShadingNormal::from_name))
+            .unwrap_or_default();
+        let terminator = args
+            .terminator
+            .or(sf_render.and_then(|r| r.terminator.as_deref()).and_then(render::Terminator::from_name))
+            .unwrap_or_default();
+
+        // Resolve the camera and the ground under it.
+        let camera = resolve_camera(args, &source, &plan, &input)?;
+        let up = camera.up.normalize_or_zero();
+        let sf_ground = sf.and_then(|s| s.ground.clone());
+        let ground = (args.ground || sf_ground.is_some()).then(|| {
+            let g = sf_ground.unwrap_or_default();
+            render::Ground { up, height: g.height, kd: g.kd.map_or(render::Ground::default().kd, Vec3::from) }
+        });
+        let settings = RenderSettings {
+            width: plan.width,
+            height: plan.height,
+            spp: plan.spp,
+            seed: plan.seed,
+            packets: args.packets == cli::Switch::On,
+        };
+        Ok(RenderJob {
+            progress: !args.quiet,
+            plan,
+            source,
+            input,
+            load: load_opts,
+            modes,
+            settings,
+            shading,
+            terminator,
+            camera,
+            ground,
+            stages,
+        })
+    }
+
+    /// What a tile of frame `k` records: a digest of the scene files' contents, the resolved
+    /// settings and the version (nothing of the thread count, tiling or tile index), and the
+    /// settings worth naming when two tiles disagree.
+    pub(crate) fn record(&self, k: Option<u32>) -> RenderRecord {
+        // Compute the digest of the files' contents (not their paths, which differ between hosts).
+        let mut d = Digest::default();
+        let mut files = vec![self.source.obj.clone()];
+        if !self.source.file_path.as_os_str().is_empty() {
+            files.push(self.source.file_path.clone());
+        }
+        files.extend(self.input.materials.iter().filter_map(|m| m.diffuse_texture.clone()));
+        let env_map = self.source.file.as_ref().and_then(|f| f.environment.as_ref()?.map.as_ref());
+        if let Some(m) = env_map {
+            files.push(self.source.file_path.parent().unwrap_or(Path::new(".")).join(m));
+        }
+        for f in &files {
+            match std::fs::read(f) {
+                Ok(bytes) => d.part("file", &bytes),
+                Err(e) => d.part("unreadable file", e.kind().to_string().as_bytes()),
+            }
+        }
+        // Compute the digest of the resolved settings.
+        let materials: Vec<_> = self
+            .input
+            .materials
+            .iter()
+            .map(|m| scene::Material { diffuse_texture: None, ..m.clone() })
+            .collect();
+        let p = &self.plan;
+        let settings = format!(
+            "{:?}",
+            (
+                (p.width, p.height, p.spp, p.seed, p.frames, k, p.format, p.alpha),
+                (&self.load, &materials, &self.modes, self.settings.packets),
+                (self.shading, self.terminator, self.camera, self.ground),
+            )
+        );
+        d.part("settings", settings.as_bytes());
+        d.part("version", env!("CARGO_PKG_VERSION").as_bytes());
+        // Name the settings most likely to differ.
+        let scene = if self.source.file_path.as_os_str().is_empty() {
+            &self.source.obj
+        } else {
+            &self.source.file_path
+        };
+        let scene = scene.file_name().map(|n| n.to_string_lossy().into_owned()).unwrap_or_default();
+        let fields = [
+            ("scene", scene),
+            (
+                "mode",
+                match self.modes.default {
+                    ObjectMode::Flat => "flat".to_string(),
+                    ObjectMode::Phong { alpha } => format!("phong:{alpha}"),
+                },
+            ),
+            ("spp", p.spp.to_string()),
+            ("seed", p.seed.to_string()),
+            ("frame", k.map_or("-".into(), |k| k.to_string())),
+            ("version", env!("CARGO_PKG_VERSION").to_string()),
+        ];
+        RenderRecord {
+            digest: d.finish(),
+            fields: fields.into_iter().map(|(k, v)| (k.to_string(), v)).collect(),
+        }
+    }
+
+    /// The world to render: every object in its mode (or all in `forced`), the key light
+    /// following the camera unless the scene file places lights, and the scene file's settings.
+    pub(crate) fn world(&self, device: &Device, forced: Option<ObjectMode>) -> anyhow::Result<World> {
+        let mut world = World::from_scene_with_ground(device, &self.input, self.ground, |_, mesh| {
+            self.modes.settings(forced, mesh)
+        })?;
+        world.shading = self.shading;
+        world.terminator = self.terminator;
+        if forced.is_none() {
+            for w in &world.warnings {
+                eprintln!("phongrt: warning: {w}");
+            }
+        }
+        world.lights = vec![Light::Directional {
+            direction: self.camera.key_light_direction(),
+            radiance: Vec3::splat(0.85),
+            shadows: true,
+        }];
+        let Some(sf) = &self.source.file else {
+            return Ok(world);
+        };
+        apply_scene_file(&mut world, sf);
+        if let Some(e) = &sf.environment {
+            let source = match (&e.color, &e.map) {
+                (Some(c), _) => render::EnvironmentSource::Constant(Vec3::from(*c)),
+                (None, Some(m)) => {
+                    let path = self.source.file_path.parent().unwrap_or(Path::new(".")).join(m);
+                    let texture = render::Environment::load_map(&path).map_err(anyhow::Error::msg)?;
+                    let up = self.camera.up.normalize_or_zero();
+                    render::EnvironmentSource::Map { texture: std::sync::Arc::new(texture), up }
+                }
+                (None, None) => bail!("environment: give color or map"),
+            };
+            world.environment = Some(render::Environment { source, samples: e.samples.unwrap_or(16) });
+        }
+        Ok(world)
+    }
+}
+
+/// The camera: the default view (up axis detected unless given, three-quarter front view,
+/// --orbit), then the scene file's and the command line's settings over it. A camera that makes
+/// no image is an error naming where each setting came from.
+pub(crate) fn resolve_camera(
+    args: &RenderArgs,
+    source: &SceneSource,
+    plan: &RenderPlan,
+    input: &scene::Scene,
+) -> anyhow::Result<Camera> {
+    let sf = source.file.as_ref();
+    let (width, height) = (plan.width, plan.height);
+    let up_given = args.camera.up.or(sf.and_then(|s| s.camera.up).map(Vec3::from));
+    let sf_camera = sf.map(|s| s.camera.clone()).unwrap_or_default();
+    let single_orbit = if plan.frames.is_some() { None } else { args.farm.orbit };
+    let (mut camera, detection) = render::camera::default_view(
+        input,
+        up_given,
+        single_orbit.or(sf_camera.orbit).unwrap_or(0.0),
+        args.camera.fov.or(sf_camera.fov),
+        width as f32 / height as f32,
+    );
+    if up_given.is_none() {
+        eprintln!("phongrt: {detection}");
+    }
+    // Apply the settings, noting where each came from.
+    let mut from = ["automatic framing".to_string(), "automatic framing".into(), "detection".into()];
+    let in_file = |key: &str| format!("{} camera.{key}", source.file_path.display());
+    if let Some(e) = sf_camera.eye {
+        camera.eye = Vec3::from(e);
+        from[0] = in_file("eye");
+    }
+    if let Some(l) = sf_camera.look_at {
+        camera.look_at = Vec3::from(l);
+        from[1] = in_file("look_at");
+    }
+    if sf_camera.up.is_some() {
+        from[2] = in_file("up");
+    }
+    if let Some(e) = args.camera.eye {
+        camera.eye = e;
+        from[0] = "--eye".into();
+    }
+    if let Some(l) = args.camera.look_at {
+        camera.look_at = l;
+        from[1] = "--look-at".into();
+    }
+    if args.camera.up.is_some() {
+        from[2] = "--up".into();
+    }
+    // Check it. (A zero image size makes the framing infinite; render() refuses that size itself.)
+    if let Some(p) = camera.problem().filter(|_| width > 0 && height > 0) {
+        let src = match p {
+            render::CameraProblem::EyeAtLookAt(_) | render::CameraProblem::NonFinite { .. } => {
+                format!("eye from {}, look_at from {}", from[0], from[1])
+            }
+            render::CameraProblem::UpParallel { .. } => {
+                format!("up from {}, eye from {}, look_at from {}", from[2], from[0], from[1])
+            }
+            render::CameraProblem::Fov(_) if args.camera.fov.is_some() => "--fov".into(),
+            render::CameraProblem::Fov(_) => in_file("fov"),
+        };
+        // A camera made bad by flags is bad usage; one from a file is bad input.
+        if src.contains("--") {
+            usage!("camera: {p} ({src})");
+        }
+        bail!("camera: {p} ({src})");
+    }
+    Ok(camera)
+}
+
+pub(crate) fn apply_scene_file(world: &mut World, sf: &SceneFile) {
+    if let Some(b) = sf.render.background {
+        world.background = Vec3::from(b);
+    }
+    if let Some(a) = sf.render.ambient {
+        world.ambient = Vec3::from(a);
+    }
+    if let Some(d) = sf.render.max_depth {
+        world.max_depth = d;
+    }
+    if !sf.lights.is_empty() {
+        world.lights = sf
+            .lights
+            .iter()
+            .map(|l| match *l {
+                LightSection::Directional { direction, radiance, shadows } => Light::Directional {
+                    direction: Vec3::from(direction).normalize(),
+                    radiance: Vec3::from(radiance),
+                    shadows,
+                },
+                LightSection::Point { position, intensity, shadows } => {
+                    Light::Point { position: Vec3::from(position), intensity: Vec3::from(intensity), shadows }
+                }
+                LightSection::Sphere { center, radius, intensity, samples } => Light::Sphere {
+                    center: Vec3::from(center),
+                    radius,
+                    intensity: Vec3::from(intensity),
+                    samples,
+                },
+            })
+            .collect();
+    }
+    world.ambient_occlusion =
+        sf.ambient_occlusion.map(|a| AmbientOcclusion { samples: a.samples, distance: a.distance });
+    for o in &sf.objects {
+        for obj in world.objects.iter_mut().filter(|x| !x.is_ground && (o.name == "*" || x.name == o.name)) {
+            if let Some(kd) = o.kd {
+                obj.surface.kd = Vec3::from(kd);
+            }
+            if let Some(m) = o.mirror {
+                obj.surface.mirror = Vec3::from(m);
+            }
+            if let Some(t) = o.transmission {
+                obj.surface.transmission = t;
+            }
+            if let Some(n) = o.ior {
+                obj.surface.ior = n;
+            }
+            if let Some(k) = o.specular {
+                obj.surface.specular = Vec3::from(k);
+            }
+            if let Some(n) = o.shininess {
+                obj.surface.shininess = n;
+            }
+        }
+    }
+}

@@ -1,0 +1,71 @@
+//! Reading the OBJ: load options from the flags, the file's warnings printed, and --object's NAME=MODE.
+
+use std::path::Path;
+
+use anyhow::bail;
+
+use crate::cli::LoadArgs;
+use crate::Usage;
+use phongrt::scene::{self, LoadOptions};
+use phongrt_render::{ObjectMode, SurfaceMode};
+
+/// Refuse a file that is plainly not an OBJ (by its extension) before reading it.
+pub(crate) fn check_obj_path(path: &Path) -> anyhow::Result<()> {
+    if let Some(ext) = path.extension().map(|e| e.to_string_lossy().to_ascii_lowercase()) {
+        if ext != "obj" {
+            bail!("{}: not an OBJ file (.{ext}); phongrt reads Wavefront .obj meshes", path.display());
+        }
+    }
+    Ok(())
+}
+
+pub(crate) fn load_options(args: &LoadArgs, crease_angle: f32) -> anyhow::Result<LoadOptions> {
+    if !(0.0..=180.0).contains(&crease_angle) {
+        usage!("--crease-angle {crease_angle} is not in [0, 180] degrees");
+    }
+    let tol = args.normal_tolerance;
+    if !(0.0..=0.1).contains(&tol) {
+        usage!("--normal-tolerance {tol} is not in [0, 0.1] radians");
+    }
+    Ok(LoadOptions {
+        crease_angle_deg: crease_angle,
+        normal_tolerance_rad: tol,
+        drop_duplicate_faces: !args.keep_duplicate_faces,
+        ..LoadOptions::default()
+    })
+}
+
+pub(crate) fn load(path: &Path, opts: &LoadOptions) -> anyhow::Result<scene::Scene> {
+    check_obj_path(path)?;
+    let s = scene::load_obj(path, opts)?;
+    for w in &s.warnings {
+        eprintln!("phongrt: warning: {w}");
+    }
+    Ok(s)
+}
+
+/// `NAME=flat` or `NAME=phong[:ALPHA]`.
+pub(crate) fn parse_object_override(s: &str) -> anyhow::Result<(String, ObjectMode)> {
+    let Some((name, mode)) = s.rsplit_once('=') else {
+        usage!("--object {s:?}: expected NAME=flat or NAME=phong[:ALPHA]");
+    };
+    let (mode_name, alpha) = match mode.split_once(':') {
+        Some((m, a)) => (m, Some(a)),
+        None => (mode, None),
+    };
+    // The names are --mode's (and the scene file's `mode`).
+    let mode = match (SurfaceMode::from_name(mode_name).ok_or(()), alpha) {
+        (Ok(m), None) => m.with_alpha(phongrt::phong::DEFAULT_ALPHA),
+        (Ok(SurfaceMode::Phong), Some(a)) => {
+            let Ok(alpha) = a.parse::<f32>() else {
+                usage!("--object {s:?}: alpha {a:?} is not a number");
+            };
+            if !(0.0..=1.0).contains(&alpha) {
+                usage!("--object {s:?}: alpha {alpha} is not in [0, 1]");
+            }
+            ObjectMode::Phong { alpha }
+        }
+        _ => usage!("--object {s:?}: mode must be flat, phong or phong:ALPHA"),
+    };
+    Ok((name.to_string(), mode))
+}
