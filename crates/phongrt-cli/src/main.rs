@@ -96,6 +96,8 @@ fn one_line(e: &anyhow::Error) -> String {
 }
 
 fn run(cli: Cli) -> anyhow::Result<()> {
+    // SIGTERM, SIGINT and SIGHUP remove our temporary files and exit with 128 + the signal.
+    phongrt_render::temp_file::remove_on_signals().context("cannot watch for signals")?;
     embree::set_flush_denormals();
     // Every thread that traces rays runs in the float mode Embree asks for, not only the
     // renderer's own pool: rayon's global pool (the bench's multi-threaded rays) too.
@@ -462,6 +464,10 @@ fn check_output(output: &Output, frames: Option<Frames>) -> anyhow::Result<Image
             if std::io::IsTerminal::is_terminal(&std::io::stdout()) {
                 usage!("-o -: stdout is a terminal; redirect it to a file or a pipe");
             }
+            if image_out::stdout_is_closed() {
+                // Bad input (exit 1), found before any work.
+                return Err(image_out::ImageError::StdoutClosed.into());
+            }
             if frames.is_some_and(|f| f.only.is_none() && f.count > 1) {
                 usage!(
                     "-o -: {} frames cannot all go to stdout; pick one with --frame I",
@@ -581,6 +587,8 @@ struct RenderJob {
     camera: Camera,
     ground: Option<render::Ground>,
     stages: Stages,
+    /// --quiet: warnings and errors only on stderr.
+    quiet: bool,
 }
 
 impl RenderJob {
@@ -657,6 +665,7 @@ impl RenderJob {
             camera,
             ground,
             stages,
+            quiet: args.quiet,
         })
     }
 
@@ -676,9 +685,10 @@ impl RenderJob {
             files.push(self.source.file_path.parent().unwrap_or(Path::new(".")).join(m));
         }
         for f in &files {
-            match std::fs::read(f) {
+            // Regular files only: a FIFO texture must not block the digest.
+            match scene::read_regular_file(f, 1 << 40) {
                 Ok(bytes) => d.part("file", &bytes),
-                Err(e) => d.part("unreadable file", e.kind().to_string().as_bytes()),
+                Err(e) => d.part("unreadable file", e.to_string().as_bytes()),
             }
         }
         // Compute the digest of the resolved settings.
@@ -786,7 +796,7 @@ fn resolve_camera(
         args.camera.fov.or(sf_camera.fov),
         width as f32 / height as f32,
     );
-    if up_given.is_none() {
+    if up_given.is_none() && !args.quiet {
         eprintln!("phongrt: {detection}");
     }
     // Apply the settings, noting where each came from.
@@ -853,11 +863,14 @@ fn run_compare(mut job: RenderJob, device: &Device, t_start: Instant) -> anyhow:
     let flat = job.world(device, Some(ObjectMode::Flat))?;
     let phong = job.world(device, None)?;
     job.stages.build = t.elapsed().as_secs_f64();
-    eprintln!("phongrt: {}", phong.effects());
+    let quiet = job.quiet;
+    if !quiet {
+        eprintln!("phongrt: {}", phong.effects());
+    }
     let a = render::render(&flat, &job.camera, &job.settings)?;
-    report("flat", &a);
+    report(quiet, "flat", &a);
     let b = render::render(&phong, &job.camera, &job.settings)?;
-    report("phong", &b);
+    report(quiet, "phong", &b);
     let ms = |o: &RenderOutput| o.elapsed.as_secs_f64() * 1e3;
     let img = render::compare_panel(
         &a.image,
@@ -870,7 +883,9 @@ fn run_compare(mut job: RenderJob, device: &Device, t_start: Instant) -> anyhow:
     let bytes = image_out::encode(&img, plan.format, &EncodeOptions::default())?;
     write_output(&plan.output, &bytes)?;
     let write = t.elapsed().as_secs_f64();
-    eprintln!("phongrt: wrote {} (flat | phong | difference)", plan.output.name());
+    if !quiet {
+        eprintln!("phongrt: wrote {} (flat | phong | difference)", plan.output.name());
+    }
     let frames =
         [frame_stats(plan, None, &plan.output, &a, write), frame_stats(plan, None, &plan.output, &b, 0.0)];
     write_stats(plan, &job.stages, &phong, &frames, t_start)
@@ -881,7 +896,11 @@ fn run_frames(mut job: RenderJob, device: &Device, t_start: Instant) -> anyhow::
     let t = Instant::now();
     let world = job.world(device, None)?;
     job.stages.build = t.elapsed().as_secs_f64();
-    eprintln!("phongrt: {}", world.effects());
+    // --quiet: warnings and errors only.
+    let quiet = job.quiet;
+    if !quiet {
+        eprintln!("phongrt: {}", world.effects());
+    }
     let plan = &job.plan;
     let extent = RenderExtent { crop: plan.crop, alpha: plan.alpha };
     let mut frames = Vec::new();
@@ -918,7 +937,7 @@ fn run_frames(mut job: RenderJob, device: &Device, t_start: Instant) -> anyhow::
                 render::MAX_SAMPLE_RADIANCE
             );
         }
-        report(&output.name(), &out);
+        report(quiet, &output.name(), &out);
         frames.push(frame_stats(plan, k, &output, &out, write));
     }
     write_stats(plan, &job.stages, &world, &frames, t_start)
@@ -1307,7 +1326,10 @@ fn save_plot(img: &image::RgbImage, path: &Path) -> anyhow::Result<()> {
     Ok(image_out::write_atomically(path, &bytes)?)
 }
 
-fn report(what: &str, out: &RenderOutput) {
+fn report(quiet: bool, what: &str, out: &RenderOutput) {
+    if quiet {
+        return;
+    }
     let secs = out.elapsed.as_secs_f64();
     eprintln!(
         "phongrt: {what}: {}x{} in {:.3} s: {}, {:.2} Mrays/s",

@@ -70,6 +70,9 @@ pub enum ImageError {
         /// The limit, in bytes.
         limit: u64,
     },
+    /// `-o -` with stdout closed (`>&-`): the image would go nowhere.
+    #[error("-: stdout is closed; the image would go nowhere (redirect it to a file or a pipe)")]
+    StdoutClosed,
     /// The output's parent exists but is not a directory.
     #[error("{path}: {} is not a directory", .dir.display())]
     ParentNotADirectory {
@@ -427,13 +430,37 @@ fn file_size_limit() -> Option<u64> {
     line.split_whitespace().nth(3)?.parse().ok()
 }
 
+/// Whether stdout was closed when the process started (`phongrt render ... -o - >&-`). std then
+/// opens `/dev/null` read-write as fd 1, so that writes succeed and the bytes go nowhere; a
+/// shell's `> /dev/null` opens it write-only. So fd 1 being `/dev/null` (same device and inode)
+/// with the read-write access mode (`/proc/self/fdinfo/1`) means it was closed.
+pub fn stdout_is_closed() -> bool {
+    use std::os::unix::fs::MetadataExt;
+    let (Ok(fd1), Ok(null)) = (std::fs::metadata("/proc/self/fd/1"), std::fs::metadata("/dev/null")) else {
+        return false;
+    };
+    if (fd1.dev(), fd1.ino()) != (null.dev(), null.ino()) {
+        return false;
+    }
+    let Ok(info) = std::fs::read_to_string("/proc/self/fdinfo/1") else {
+        return false;
+    };
+    let flags = info.lines().find_map(|l| l.strip_prefix("flags:")).map(str::trim);
+    // O_ACCMODE is 3, O_RDWR 2 (octal in fdinfo).
+    flags.and_then(|f| u32::from_str_radix(f, 8).ok()).is_some_and(|f| f & 3 == 2)
+}
+
 /// Write `bytes` to stdout, every write checked. A closed stdout is an error (std would drop
-/// the bytes without one), and so is a regular file that the bytes would take past the
-/// file-size limit (`ulimit -f`), which would otherwise kill the process with SIGXFSZ halfway.
+/// the bytes without one, see [`stdout_is_closed`]), and so is a regular file that the bytes
+/// would take past the file-size limit (`ulimit -f`), which would otherwise kill the process
+/// with SIGXFSZ halfway.
 pub fn write_stdout(bytes: &[u8]) -> Result<(), ImageError> {
     use std::io::Seek;
     use std::os::fd::AsFd;
     let path = || PathBuf::from("-");
+    if stdout_is_closed() {
+        return Err(ImageError::StdoutClosed);
+    }
     let stdout = std::io::stdout();
     let dup =
         stdout.as_fd().try_clone_to_owned().map_err(|source| ImageError::Open { path: path(), source })?;
@@ -483,17 +510,10 @@ pub fn write_atomically(path: &Path, bytes: &[u8]) -> Result<(), ImageError> {
     };
     let file_name = target.file_name().map(|n| n.to_string_lossy().into_owned()).unwrap_or_default();
     // A name no other process (on any host, in any PID namespace) uses: only this one's to
-    // remove on failure.
-    let (tmp, mut f) = super::temp_file::create_unique(&dir, &file_name).map_err(write_error)?;
-    let mut write = || -> std::io::Result<()> {
-        f.write_all(bytes)?;
-        f.sync_all()?;
-        std::fs::rename(&tmp, &target)
-    };
-    write().map_err(|e| {
-        let _ = std::fs::remove_file(&tmp);
-        write_error(e)
-    })
+    // remove on failure (when it drops) or on a signal.
+    let mut tmp = super::temp_file::TempFile::create(&dir, &file_name).map_err(write_error)?;
+    tmp.file().write_all(bytes).and_then(|()| tmp.file().sync_all()).map_err(write_error)?;
+    tmp.persist(&target).map_err(write_error)
 }
 
 /// Check, before any work, that an image can be written at `path`: a known extension, an
@@ -522,11 +542,9 @@ pub fn check_writable(path: &Path) -> Result<ImageFormat, ImageError> {
         Ok(_) => return Err(ImageError::ParentNotADirectory { path: path_buf(), dir }),
         Err(_) => return Err(ImageError::NoDirectory { path: path_buf(), dir }),
     }
-    match super::temp_file::create_unique(&dir, "phongrt-probe") {
-        Ok((probe, _)) => {
-            let _ = std::fs::remove_file(&probe);
-        }
-        Err(reason) => return Err(ImageError::DirectoryNotWritable { path: path_buf(), dir, reason }),
+    // The probe file is removed when it drops.
+    if let Err(reason) = super::temp_file::TempFile::create(&dir, "phongrt-probe") {
+        return Err(ImageError::DirectoryNotWritable { path: path_buf(), dir, reason });
     }
     Ok(format)
 }
