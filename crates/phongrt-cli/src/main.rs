@@ -14,12 +14,13 @@ use glam::Vec3;
 use cli::{Cli, Command, InfoArgs, LoadArgs, RenderArgs, StitchArgs};
 use phongrt::embree::{self, Device};
 use phongrt::scene::{self, LoadOptions};
-use phongrt_render::image_out::{self, EncodeOptions, ImageFormat, Tile, TilePixels};
+use phongrt_render::image_out::{self, EncodeOptions, ImageFormat};
 use phongrt_render::render_record::{Digest, RenderRecord};
 use phongrt_render::scene_file::{self, LightSection, SceneFile};
+use phongrt_render::stitch::StitchError;
 use phongrt_render::{
-    self as render, AmbientOcclusion, Camera, Image, Light, ObjectMode, ObjectSettings, RenderExtent,
-    RenderOutput, RenderSettings, SurfaceMode, Window, World,
+    self as render, AmbientOcclusion, Camera, Light, ObjectMode, ObjectSettings, RenderExtent, RenderOutput,
+    RenderSettings, SurfaceMode, Window, World,
 };
 
 /// A mistake on the command line (a flag or its value): exit status 2. Everything else (an
@@ -1032,146 +1033,21 @@ fn write_stats(
     Ok(())
 }
 
-/// Assemble tiles into one image: every pixel covered exactly once, all from one frame size.
+/// Assemble tiles into one image (see [`phongrt_render::stitch`]).
 fn stitch_cmd(args: StitchArgs) -> anyhow::Result<()> {
-    let format = ImageFormat::from_path(&args.output).map_err(|e| Usage(format!("stitch: {e}")))?;
-    if let Some(input) = phongrt_render::temp_file::input_that_is(&args.output, &args.tiles) {
-        return Err(Usage(format!(
-            "stitch: the output {} is the input tile {} (the same file): writing it would destroy the tile",
-            args.output.display(),
-            input.display()
-        ))
-        .into());
-    }
-    image_out::check_writable(&args.output)?;
-    let mut tiles: Vec<(String, Tile)> = Vec::new();
-    for p in &args.tiles {
-        let t = image_out::read_tile(p)?;
-        tiles.push((p.display().to_string(), t));
-    }
-    let (first_name, first) = &tiles[0];
-    let (fw, fh) = (first.window.full_width, first.window.full_height);
-    let kind = |t: &Tile| match t.pixels {
-        TilePixels::Srgb8 { channels, .. } => ("PNG", channels),
-        TilePixels::Linear { channels, .. } => ("EXR", channels),
-    };
-    for (name, t) in &tiles {
-        let w = &t.window;
-        if (w.full_width, w.full_height) != (fw, fh) {
-            usage!(
-                "stitch: {name}: tile {} is of a {}x{} frame, but {first_name} is of a {fw}x{fh} frame",
-                w.to_text(),
-                w.full_width,
-                w.full_height
+    match render::stitch::stitch(&args.output, &args.tiles) {
+        Ok(s) => {
+            eprintln!(
+                "phongrt: wrote {} ({}x{} from {} tiles)",
+                args.output.display(),
+                s.width,
+                s.height,
+                s.tiles
             );
+            Ok(())
         }
-        if kind(t) != kind(first) {
-            usage!(
-                "stitch: {name}: a {} tile with {} channels, but {first_name} is {} with {}",
-                kind(t).0,
-                kind(t).1,
-                kind(first).0,
-                kind(first).1
-            );
-        }
-    }
-    check_same_render(&tiles)?;
-    for (i, (a_name, a)) in tiles.iter().enumerate() {
-        for (b_name, b) in &tiles[i + 1..] {
-            if a.window.overlaps(&b.window) {
-                usage!(
-                    "stitch: {b_name}: window {} overlaps {a_name}'s {}",
-                    b.window.to_text(),
-                    a.window.to_text()
-                );
-            }
-        }
-    }
-    let covered: u64 = tiles.iter().map(|(_, t)| t.window.width() as u64 * t.window.height() as u64).sum();
-    if covered != fw as u64 * fh as u64 {
-        usage!(
-            "stitch: the tiles cover {covered} of the {fw}x{fh} frame's {} pixels (missing tiles?)",
-            fw as u64 * fh as u64
-        );
-    }
-    let (is_png, channels) = (kind(first).0 == "PNG", kind(first).1);
-    let n = fw as usize * fh as usize * channels;
-    let bytes = if is_png {
-        let mut data = vec![0u8; n];
-        for (_, t) in &tiles {
-            let TilePixels::Srgb8 { data: src, .. } = &t.pixels else { unreachable!("checked above") };
-            blit_rows(&mut data, src, &t.window, fw, channels);
-        }
-        match format {
-            ImageFormat::Png => image_out::encode_png8(fw, fh, channels == 4, &data, None, None)?,
-            ImageFormat::Exr => usage!(
-                "stitch: {}: PNG tiles are 8-bit sRGB; stitch them to .png (EXR output needs EXR tiles)",
-                args.output.display()
-            ),
-        }
-    } else {
-        let mut data = vec![0f32; n];
-        for (_, t) in &tiles {
-            let TilePixels::Linear { data: src, .. } = &t.pixels else { unreachable!("checked above") };
-            blit_rows(&mut data, src, &t.window, fw, channels);
-        }
-        let mut img = Image::new(fw, fh);
-        let mut alpha = Vec::new();
-        for (i, px) in data.chunks_exact(channels).enumerate() {
-            img.pixels[i] = Vec3::new(px[0], px[1], px[2]);
-            if channels == 4 {
-                alpha.push(px[3]);
-            }
-        }
-        let opts = EncodeOptions { alpha: (channels == 4).then_some(&alpha[..]), ..Default::default() };
-        image_out::encode(&img, format, &opts)?
-    };
-    image_out::write_atomically(&args.output, &bytes)?;
-    eprintln!("phongrt: wrote {} ({fw}x{fh} from {} tiles)", args.output.display(), tiles.len());
-    Ok(())
-}
-
-/// Refuse tiles of different renders (their digests differ) and tiles that record none.
-fn check_same_render(tiles: &[(String, Tile)]) -> anyhow::Result<()> {
-    let mut records = Vec::new();
-    for (name, t) in tiles {
-        let Some(text) = &t.render else {
-            usage!(
-                "stitch: {name}: records no render digest (a tile of an older phongrt, or not a tile); \
-                 render it again"
-            );
-        };
-        let Some(r) = RenderRecord::from_text(text) else {
-            usage!("stitch: {name}: malformed {} {text:?}", phongrt_render::render_record::RENDER_KEY);
-        };
-        records.push(r);
-    }
-    let (first_name, first) = (&tiles[0].0, &records[0]);
-    for ((name, _), r) in tiles.iter().zip(&records).skip(1) {
-        if r.digest == first.digest {
-            continue;
-        }
-        match first.first_difference(r) {
-            Some((key, a, b)) => {
-                usage!("stitch: {name} and {first_name} are tiles of different renders: {key} {b} in {name}, {a} in {first_name}")
-            }
-            None => usage!(
-                "stitch: {name} and {first_name} are tiles of different renders: their scene files or \
-                 settings differ (digest {:016x} vs {:016x})",
-                r.digest,
-                first.digest
-            ),
-        }
-    }
-    Ok(())
-}
-
-/// Copy a tile's rows into the full frame.
-fn blit_rows<T: Copy>(dst: &mut [T], src: &[T], w: &Window, full_width: u32, channels: usize) {
-    let row = w.width() as usize * channels;
-    for (r, line) in src.chunks_exact(row).enumerate() {
-        let at = ((w.y0 as usize + r) * full_width as usize + w.x0 as usize) * channels;
-        dst[at..at + row].copy_from_slice(line);
+        Err(e @ StitchError::Refused(_)) => Err(Usage(e.to_string()).into()),
+        Err(StitchError::Image(e)) => Err(e.into()),
     }
 }
 

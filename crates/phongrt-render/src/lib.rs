@@ -10,6 +10,7 @@ pub mod image_out;
 pub mod render_record;
 pub mod scene_file;
 pub mod smoothness;
+pub mod stitch;
 pub mod temp_file;
 pub mod text;
 pub mod texture;
