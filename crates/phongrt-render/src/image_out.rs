@@ -666,7 +666,7 @@ pub fn read_tile_header(path: &Path) -> Result<TileHeader, ImageError> {
                 Some(AttributeValue::Text(t)) => Some(t.to_string()),
                 _ => None,
             };
-            let has_alpha = header.channels.list.iter().any(|c| c.name == Text::from("A"));
+            let has_alpha = header.channels.list.iter().any(|c| c.name == *"A");
             check_size(path, &window, res.x() as u32, res.y() as u32)?;
             let channels = if has_alpha { 4 } else { 3 };
             Ok(TileHeader {
