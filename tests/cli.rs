@@ -45,7 +45,6 @@ fn renders_png_and_exr_in_both_modes() {
                 "64",
                 "--height",
                 "48",
-                "--quiet",
                 "--mode",
                 mode,
                 "-o",
@@ -600,4 +599,46 @@ fn completions_name_the_farm_flags() {
         .assert()
         .success()
         .stdout(predicate::str::contains("--tile").and(predicate::str::contains("stitch")));
+}
+
+// Issue 24: `phongrt render ... -o - >&-` exited 0 and printed the success line, but the image
+// went nowhere (std reopens a closed fd 1 on /dev/null). Now it is exit 1 with one line, before
+// rendering; `> /dev/null`, asked for, still succeeds.
+#[test]
+fn closed_stdout_is_exit_1() {
+    let exe = common::target_dir().join("phongrt");
+    let render =
+        format!("exec '{}' render scenes/sphere_lowpoly.obj --width 16 --height 16 -o -", exe.display());
+    let o = std::process::Command::new("sh").arg("-c").arg(format!("{render} >&-")).output().unwrap();
+    let err = String::from_utf8_lossy(&o.stderr);
+    assert_eq!(o.status.code(), Some(1), "{err}");
+    assert!(err.contains("stdout is closed") && !err.contains("16x16 in"), "{err}");
+    assert_eq!(err.lines().count(), 1, "{err}");
+    let o = std::process::Command::new("sh").arg("-c").arg(format!("{render} > /dev/null")).output().unwrap();
+    assert!(o.status.success(), "{}", String::from_utf8_lossy(&o.stderr));
+}
+
+// Issue 24: `-q` still printed the up-axis and effects lines (and the timing line). Quiet
+// means warnings and errors only.
+#[test]
+fn quiet_render_prints_nothing() {
+    let dir = tempfile::tempdir().unwrap();
+    let out = dir.path().join("q.png");
+    let args = ["render", "scenes/sphere_lowpoly.obj", "--width", "16", "--height", "16", "-o"];
+    let o = phongrt().args(args).arg(&out).output().unwrap();
+    let err = String::from_utf8_lossy(&o.stderr);
+    assert!(o.status.success() && err.contains("up +") && err.contains("effects"), "{err}");
+    for flag in ["-q", "--quiet"] {
+        let o = phongrt().args(args).arg(&out).arg(flag).output().unwrap();
+        assert!(o.status.success());
+        assert_eq!(String::from_utf8_lossy(&o.stderr), "", "{flag}");
+    }
+    let o = phongrt()
+        .args(["render", "--compare", "-q", "--width", "16", "--height", "16", "-o"])
+        .arg(dir.path().join("c.png"))
+        .arg("scenes/sphere_lowpoly.obj")
+        .output()
+        .unwrap();
+    assert!(o.status.success());
+    assert_eq!(String::from_utf8_lossy(&o.stderr), "", "--compare -q");
 }

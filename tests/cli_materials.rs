@@ -53,7 +53,7 @@ fn up_axis_names_and_orbit_are_accepted_and_a_zero_up_refused() {
     assert!(stderr_of(&a).contains("--up"), "{}", stderr_of(&a));
     // Without --up the detection is reported.
     let a = phongrt()
-        .args(["render", "scenes/mug/mug.obj", "-q", "--width", "32", "--height", "32", "-o"])
+        .args(["render", "scenes/mug/mug.obj", "--width", "32", "--height", "32", "-o"])
         .arg(&out)
         .assert()
         .success();

@@ -409,3 +409,34 @@ fn stdout_past_the_file_size_limit_is_an_error() {
     assert_eq!(o.status.code(), Some(1), "{err}");
     assert!(err.contains("file-size limit"), "{err}");
 }
+
+// Issue 24: a texture or environment map that is a FIFO blocked forever in `open()`, after the
+// warning "not a regular file". Now each is checked to be a regular file and opened with
+// O_NONBLOCK: the texture falls back to the flat colour (a warning), the map is an error.
+#[test]
+fn fifo_texture_and_environment_map_do_not_block() {
+    let dir = tempfile::tempdir().unwrap();
+    for name in ["pipe.png", "pipe.hdr"] {
+        assert!(Command::new("mkfifo").arg(dir.path().join(name)).status().unwrap().success());
+    }
+    write(dir.path(), "m.mtl", "newmtl a\nKd 0.5 0.5 0.5\nmap_Kd pipe.png\n");
+    let obj = format!("mtllib m.mtl\nusemtl a\n{TRI}vt 0 0\nvt 1 0\nvt 0 1\nf 1/1 2/2 3/3\n");
+    let obj = write(dir.path(), "m.obj", &obj);
+    // A tile too: its digest reads the texture's contents.
+    let mut c = phongrt();
+    c.args(["render", "-q", "--width", "8", "--height", "8", "--tile", "0/1", "-o"])
+        .arg(dir.path().join("o.png"))
+        .arg(&obj);
+    let out = run_with_timeout(c, Duration::from_secs(20));
+    let err = String::from_utf8_lossy(&out.stderr);
+    assert!(out.status.success(), "{err}");
+    assert!(err.contains("pipe.png") && err.contains("not a regular file"), "{err}");
+
+    let toml = write(dir.path(), "s.toml", "obj = \"m.obj\"\n[environment]\nmap = \"pipe.hdr\"\n");
+    let mut c = phongrt();
+    c.args(["render", "-q", "--width", "8", "--height", "8", "-o"]).arg(dir.path().join("e.png")).arg(&toml);
+    let out = run_with_timeout(c, Duration::from_secs(20));
+    let err = String::from_utf8_lossy(&out.stderr);
+    assert_eq!(out.status.code(), Some(1), "{err}");
+    assert!(err.contains("pipe.hdr") && err.contains("not a regular file"), "{err}");
+}

@@ -225,3 +225,40 @@ fn stitch_refuses_a_tile_whose_texture_changed_between_renders() {
     let err = String::from_utf8_lossy(&a.get_output().stderr);
     assert!(err.contains("different renders") && err.contains("settings differ"), "{err}");
 }
+
+// Issue 24: stitch held every tile and the frame in memory and ignored PHONGRT_MAX_MEMORY (the
+// 32768² frame would have needed about 57 GB). EXR tiles are still held whole, so a stitch
+// beyond the budget is refused, from the headers, before any pixel is read.
+#[test]
+fn exr_stitch_beyond_the_memory_budget_is_refused() {
+    let dir = tempfile::tempdir().unwrap();
+    let tiles: Vec<PathBuf> =
+        (0..2).map(|i| tile_of(dir.path(), &format!("t_{i}"), "exr", i, 2, &[])).collect();
+    let out = dir.path().join("out.exr");
+    let o =
+        phongrt().arg("stitch").arg(&out).args(&tiles).env("PHONGRT_MAX_MEMORY", "20000").assert().failure();
+    let err = String::from_utf8_lossy(&o.get_output().stderr).into_owned();
+    assert!(err.contains("32x24 frame needs about") && err.contains("PHONGRT_MAX_MEMORY"), "{err}");
+    assert_eq!(err.lines().count(), 1, "{err}");
+    assert!(!out.exists());
+    phongrt().arg("stitch").arg(&out).args(&tiles).env("PHONGRT_MAX_MEMORY", "10000000").assert().success();
+}
+
+// PNG tiles are streamed row by row: the same frame stitches within a budget of 2 MB, and the
+// result is the whole render's file.
+#[test]
+fn png_stitch_streams_within_a_small_memory_budget() {
+    let dir = tempfile::tempdir().unwrap();
+    let tiles: Vec<PathBuf> =
+        (0..3).map(|i| tile_of(dir.path(), &format!("t_{i}"), "png", i, 3, &[])).collect();
+    let out = dir.path().join("out.png");
+    phongrt().arg("stitch").arg(&out).args(&tiles).env("PHONGRT_MAX_MEMORY", "2000000").assert().success();
+    let whole = dir.path().join("whole.png");
+    phongrt()
+        .args(["render", "scenes/sphere_lowpoly.obj", "--width", "32", "--height", "24", "-q", "-o"])
+        .arg(&whole)
+        .current_dir(common::root())
+        .assert()
+        .success();
+    assert_eq!(std::fs::read(&out).unwrap(), std::fs::read(&whole).unwrap());
+}

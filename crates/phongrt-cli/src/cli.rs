@@ -133,7 +133,7 @@ pub struct RenderArgs {
     pub camera: CameraArgs,
     #[command(flatten)]
     pub load: LoadArgs,
-    /// No progress bar.
+    /// Warnings and errors only: no progress bar, no notes (up axis, effects, timings).
     #[arg(long, short)]
     pub quiet: bool,
 }

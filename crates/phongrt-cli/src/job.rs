@@ -103,6 +103,8 @@ pub(crate) struct RenderJob {
     pub(crate) camera: Camera,
     pub(crate) ground: Option<render::Ground>,
     pub(crate) stages: Stages,
+    /// --quiet: warnings and errors only on stderr.
+    pub(crate) quiet: bool,
 }
 
 impl RenderJob {
@@ -178,6 +180,7 @@ impl RenderJob {
             camera,
             ground,
             stages,
+            quiet: args.quiet,
         })
     }
 
@@ -197,9 +200,10 @@ impl RenderJob {
             files.push(self.source.file_path.parent().unwrap_or(Path::new(".")).join(m));
         }
         for f in &files {
-            match std::fs::read(f) {
+            // Regular files only: a FIFO texture must not block the digest.
+            match scene::read_regular_file(f, 1 << 40) {
                 Ok(bytes) => d.part("file", &bytes),
-                Err(e) => d.part("unreadable file", e.kind().to_string().as_bytes()),
+                Err(e) => d.part("unreadable file", e.to_string().as_bytes()),
             }
         }
         // Compute the digest of the resolved settings.
@@ -307,7 +311,7 @@ pub(crate) fn resolve_camera(
         args.camera.fov.or(sf_camera.fov),
         width as f32 / height as f32,
     );
-    if up_given.is_none() {
+    if up_given.is_none() && !args.quiet {
         eprintln!("phongrt: {detection}");
     }
     // Apply the settings, noting where each came from.

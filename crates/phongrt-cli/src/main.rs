@@ -93,6 +93,8 @@ fn one_line(e: &anyhow::Error) -> String {
 }
 
 fn run(cli: Cli) -> anyhow::Result<()> {
+    // SIGTERM, SIGINT and SIGHUP remove our temporary files and exit with 128 + the signal.
+    phongrt_render::temp_file::remove_on_signals().context("cannot watch for signals")?;
     embree::set_flush_denormals();
     // Every thread that traces rays runs in the float mode Embree asks for, not only the
     // renderer's own pool: rayon's global pool (the bench's multi-threaded rays) too.

@@ -121,16 +121,9 @@ pub(crate) fn parse_tile(s: &str, w: u32, h: u32) -> anyhow::Result<Window> {
     Ok(Window { x0: 0, y0: band(i), x1: w, y1: band(i + 1), full_width: w, full_height: h })
 }
 
-/// The memory this machine (or `PHONGRT_MAX_MEMORY`, in bytes) lets a render use.
-pub(crate) fn memory_budget() -> Option<u64> {
-    if let Some(v) = std::env::var_os("PHONGRT_MAX_MEMORY") {
-        return v.to_str().and_then(|s| s.trim().parse().ok());
-    }
-    let info = std::fs::read_to_string("/proc/meminfo").ok()?;
-    let line = info.lines().find(|l| l.starts_with("MemAvailable:"))?;
-    let kb: u64 = line.split_whitespace().nth(1)?.parse().ok()?;
-    Some(kb * 1024)
-}
+/// The memory this machine (or `PHONGRT_MAX_MEMORY`, in bytes) lets a render use: the same
+/// budget as a stitch's.
+pub(crate) use phongrt_render::stitch::memory_budget;
 
 pub(crate) fn gb(bytes: u64) -> String {
     format!("{:.1} GB", bytes as f64 / 1e9)
@@ -269,6 +262,10 @@ pub(crate) fn check_output(output: &Output, frames: Option<Frames>) -> anyhow::R
         Output::Stdout => {
             if std::io::IsTerminal::is_terminal(&std::io::stdout()) {
                 usage!("-o -: stdout is a terminal; redirect it to a file or a pipe");
+            }
+            if image_out::stdout_is_closed() {
+                // Bad input (exit 1), found before any work.
+                return Err(image_out::ImageError::StdoutClosed.into());
             }
             if frames.is_some_and(|f| f.only.is_none() && f.count > 1) {
                 usage!(

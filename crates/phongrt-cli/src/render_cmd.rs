@@ -71,12 +71,15 @@ pub(crate) fn run_compare(
     let flat = job.world(device, Some(ObjectMode::Flat))?;
     let phong = job.world(device, None)?;
     job.stages.build = t.elapsed().as_secs_f64();
-    eprintln!("phongrt: {}", phong.effects());
+    let quiet = job.quiet;
+    if !quiet {
+        eprintln!("phongrt: {}", phong.effects());
+    }
     let whole = RenderExtent::default();
     let a = render_with_bar(pool, job.progress, &flat, &job.camera, &job.settings, &whole)?;
-    report("flat", &a);
+    report(quiet, "flat", &a);
     let b = render_with_bar(pool, job.progress, &phong, &job.camera, &job.settings, &whole)?;
-    report("phong", &b);
+    report(quiet, "phong", &b);
     let ms = |o: &RenderOutput| o.elapsed.as_secs_f64() * 1e3;
     let img = render::compare_panel(
         &a.image,
@@ -89,7 +92,9 @@ pub(crate) fn run_compare(
     let bytes = image_out::encode(&img, plan.format, &EncodeOptions::default())?;
     write_output(&plan.output, &bytes)?;
     let write = t.elapsed().as_secs_f64();
-    eprintln!("phongrt: wrote {} (flat | phong | difference)", plan.output.name());
+    if !quiet {
+        eprintln!("phongrt: wrote {} (flat | phong | difference)", plan.output.name());
+    }
     let frames =
         [frame_stats(plan, None, &plan.output, &a, write), frame_stats(plan, None, &plan.output, &b, 0.0)];
     write_stats(plan, &job.stages, &phong, &frames, t_start)
@@ -105,7 +110,11 @@ pub(crate) fn run_frames(
     let t = Instant::now();
     let world = job.world(device, None)?;
     job.stages.build = t.elapsed().as_secs_f64();
-    eprintln!("phongrt: {}", world.effects());
+    // --quiet: warnings and errors only.
+    let quiet = job.quiet;
+    if !quiet {
+        eprintln!("phongrt: {}", world.effects());
+    }
     let plan = &job.plan;
     let extent = RenderExtent { crop: plan.crop, alpha: plan.alpha };
     let mut frames = Vec::new();
@@ -142,7 +151,7 @@ pub(crate) fn run_frames(
                 render::MAX_SAMPLE_RADIANCE
             );
         }
-        report(&output.name(), &out);
+        report(quiet, &output.name(), &out);
         frames.push(frame_stats(plan, k, &output, &out, write));
     }
     write_stats(plan, &job.stages, &world, &frames, t_start)
@@ -227,7 +236,10 @@ pub(crate) fn write_stats(
     Ok(())
 }
 
-pub(crate) fn report(what: &str, out: &RenderOutput) {
+pub(crate) fn report(quiet: bool, what: &str, out: &RenderOutput) {
+    if quiet {
+        return;
+    }
     let secs = out.elapsed.as_secs_f64();
     eprintln!(
         "phongrt: {what}: {}x{} in {:.3} s: {}, {:.2} Mrays/s",

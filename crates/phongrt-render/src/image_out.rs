@@ -70,6 +70,9 @@ pub enum ImageError {
         /// The limit, in bytes.
         limit: u64,
     },
+    /// `-o -` with stdout closed (`>&-`): the image would go nowhere.
+    #[error("-: stdout is closed; the image would go nowhere (redirect it to a file or a pipe)")]
+    StdoutClosed,
     /// The output's parent exists but is not a directory.
     #[error("{path}: {} is not a directory", .dir.display())]
     ParentNotADirectory {
@@ -147,6 +150,12 @@ pub enum ImageError {
     /// A tile's EXR layer starts left of or above the frame.
     #[error("{path}: negative layer position")]
     NegativeLayerPosition {
+        /// The tile path.
+        path: PathBuf,
+    },
+    /// A tile's header differs from the one read when the tiles were checked.
+    #[error("{path}: changed while being stitched")]
+    Changed {
         /// The tile path.
         path: PathBuf,
     },
@@ -344,7 +353,9 @@ pub fn encode(img: &Image, format: ImageFormat, opts: &EncodeOptions) -> Result<
     }
 }
 
-/// PNG from 8-bit sRGB bytes (RGB or RGBA interleaved).
+/// PNG from 8-bit sRGB bytes (RGB or RGBA interleaved), encoded as [`png_writer`] and
+/// [`png::Writer::stream_writer`] do for `stitch`, so that a stitched frame is byte for byte the
+/// whole render.
 pub fn encode_png8(
     w: u32,
     h: u32,
@@ -355,21 +366,36 @@ pub fn encode_png8(
 ) -> Result<Vec<u8>, ImageError> {
     let mut out = Vec::new();
     {
-        let mut enc = png::Encoder::new(&mut out, w, h);
-        enc.set_color(if rgba { png::ColorType::Rgba } else { png::ColorType::Rgb });
-        enc.set_depth(png::BitDepth::Eight);
-        enc.set_source_srgb(png::SrgbRenderingIntent::Perceptual);
-        if let Some(win) = window {
-            enc.add_text_chunk(WINDOW_KEY.to_string(), win.to_text()).map_err(ImageError::EncodePng)?;
-        }
-        if let Some(r) = render {
-            enc.add_text_chunk(RENDER_KEY.to_string(), r.to_string()).map_err(ImageError::EncodePng)?;
-        }
-        let mut writer = enc.write_header().map_err(ImageError::EncodePng)?;
-        writer.write_image_data(data).map_err(ImageError::EncodePng)?;
+        let mut writer = png_writer(&mut out, w, h, rgba, window, render)?;
+        let mut stream = writer.stream_writer().map_err(ImageError::EncodePng)?;
+        stream.write_all(data).map_err(|e| ImageError::EncodePng(e.into()))?;
+        stream.finish().map_err(ImageError::EncodePng)?;
         writer.finish().map_err(ImageError::EncodePng)?;
     }
     Ok(out)
+}
+
+/// A PNG writer with its header written: 8-bit sRGB, RGB or RGBA, and the tile's window and
+/// render record as text chunks when given.
+pub fn png_writer<W: Write>(
+    sink: W,
+    w: u32,
+    h: u32,
+    rgba: bool,
+    window: Option<Window>,
+    render: Option<&str>,
+) -> Result<png::Writer<W>, ImageError> {
+    let mut enc = png::Encoder::new(sink, w, h);
+    enc.set_color(if rgba { png::ColorType::Rgba } else { png::ColorType::Rgb });
+    enc.set_depth(png::BitDepth::Eight);
+    enc.set_source_srgb(png::SrgbRenderingIntent::Perceptual);
+    if let Some(win) = window {
+        enc.add_text_chunk(WINDOW_KEY.to_string(), win.to_text()).map_err(ImageError::EncodePng)?;
+    }
+    if let Some(r) = render {
+        enc.add_text_chunk(RENDER_KEY.to_string(), r.to_string()).map_err(ImageError::EncodePng)?;
+    }
+    enc.write_header().map_err(ImageError::EncodePng)
 }
 
 fn encode_exr(img: &Image, opts: &EncodeOptions) -> Result<Vec<u8>, ImageError> {
@@ -427,13 +453,37 @@ fn file_size_limit() -> Option<u64> {
     line.split_whitespace().nth(3)?.parse().ok()
 }
 
+/// Whether stdout was closed when the process started (`phongrt render ... -o - >&-`). std then
+/// opens `/dev/null` read-write as fd 1, so that writes succeed and the bytes go nowhere; a
+/// shell's `> /dev/null` opens it write-only. So fd 1 being `/dev/null` (same device and inode)
+/// with the read-write access mode (`/proc/self/fdinfo/1`) means it was closed.
+pub fn stdout_is_closed() -> bool {
+    use std::os::unix::fs::MetadataExt;
+    let (Ok(fd1), Ok(null)) = (std::fs::metadata("/proc/self/fd/1"), std::fs::metadata("/dev/null")) else {
+        return false;
+    };
+    if (fd1.dev(), fd1.ino()) != (null.dev(), null.ino()) {
+        return false;
+    }
+    let Ok(info) = std::fs::read_to_string("/proc/self/fdinfo/1") else {
+        return false;
+    };
+    let flags = info.lines().find_map(|l| l.strip_prefix("flags:")).map(str::trim);
+    // O_ACCMODE is 3, O_RDWR 2 (octal in fdinfo).
+    flags.and_then(|f| u32::from_str_radix(f, 8).ok()).is_some_and(|f| f & 3 == 2)
+}
+
 /// Write `bytes` to stdout, every write checked. A closed stdout is an error (std would drop
-/// the bytes without one), and so is a regular file that the bytes would take past the
-/// file-size limit (`ulimit -f`), which would otherwise kill the process with SIGXFSZ halfway.
+/// the bytes without one, see [`stdout_is_closed`]), and so is a regular file that the bytes
+/// would take past the file-size limit (`ulimit -f`), which would otherwise kill the process
+/// with SIGXFSZ halfway.
 pub fn write_stdout(bytes: &[u8]) -> Result<(), ImageError> {
     use std::io::Seek;
     use std::os::fd::AsFd;
     let path = || PathBuf::from("-");
+    if stdout_is_closed() {
+        return Err(ImageError::StdoutClosed);
+    }
     let stdout = std::io::stdout();
     let dup =
         stdout.as_fd().try_clone_to_owned().map_err(|source| ImageError::Open { path: path(), source })?;
@@ -483,17 +533,10 @@ pub fn write_atomically(path: &Path, bytes: &[u8]) -> Result<(), ImageError> {
     };
     let file_name = target.file_name().map(|n| n.to_string_lossy().into_owned()).unwrap_or_default();
     // A name no other process (on any host, in any PID namespace) uses: only this one's to
-    // remove on failure.
-    let (tmp, mut f) = super::temp_file::create_unique(&dir, &file_name).map_err(write_error)?;
-    let mut write = || -> std::io::Result<()> {
-        f.write_all(bytes)?;
-        f.sync_all()?;
-        std::fs::rename(&tmp, &target)
-    };
-    write().map_err(|e| {
-        let _ = std::fs::remove_file(&tmp);
-        write_error(e)
-    })
+    // remove on failure (when it drops) or on a signal.
+    let mut tmp = super::temp_file::TempFile::create(&dir, &file_name).map_err(write_error)?;
+    tmp.file().write_all(bytes).and_then(|()| tmp.file().sync_all()).map_err(write_error)?;
+    tmp.persist(&target).map_err(write_error)
 }
 
 /// Check, before any work, that an image can be written at `path`: a known extension, an
@@ -522,11 +565,9 @@ pub fn check_writable(path: &Path) -> Result<ImageFormat, ImageError> {
         Ok(_) => return Err(ImageError::ParentNotADirectory { path: path_buf(), dir }),
         Err(_) => return Err(ImageError::NoDirectory { path: path_buf(), dir }),
     }
-    match super::temp_file::create_unique(&dir, "phongrt-probe") {
-        Ok((probe, _)) => {
-            let _ = std::fs::remove_file(&probe);
-        }
-        Err(reason) => return Err(ImageError::DirectoryNotWritable { path: path_buf(), dir, reason }),
+    // The probe file is removed when it drops.
+    if let Err(reason) = super::temp_file::TempFile::create(&dir, "phongrt-probe") {
+        return Err(ImageError::DirectoryNotWritable { path: path_buf(), dir, reason });
     }
     Ok(format)
 }
@@ -552,41 +593,123 @@ pub struct Tile {
     pub render: Option<String>,
 }
 
+/// What a tile file says about itself before its pixels are read: enough to check a set of
+/// tiles (and the memory a stitch needs) without decoding any.
+#[derive(Clone, Debug, PartialEq)]
+pub struct TileHeader {
+    /// Where the tile sits in its frame (the whole frame when it records none).
+    pub window: Window,
+    /// Whether the file recorded a window (PNG text chunk, or an EXR display window).
+    pub has_window: bool,
+    /// The recorded [`RenderRecord`](crate::render_record::RenderRecord) text, if any.
+    pub render: Option<String>,
+    /// PNG (8-bit sRGB) or EXR (linear floats).
+    pub format: ImageFormat,
+    /// 3 (RGB) or 4 (RGBA).
+    pub channels: usize,
+}
+
+/// A PNG tile opened and its header read and checked: the decoder is ready for its rows.
+pub type PngReader = png::Reader<std::io::BufReader<std::fs::File>>;
+
+/// Open a PNG tile: its header, and the decoder positioned at its first row (8-bit RGB or RGBA,
+/// not interlaced, as `phongrt render` writes).
+pub fn open_png_tile(path: &Path) -> Result<(TileHeader, PngReader), ImageError> {
+    let path_buf = || path.to_path_buf();
+    let png_error = |source| ImageError::DecodePng { path: path_buf(), source };
+    let f = std::fs::File::open(path).map_err(|source| ImageError::Read { path: path_buf(), source })?;
+    let mut dec = png::Decoder::new(std::io::BufReader::new(f));
+    dec.set_transformations(png::Transformations::IDENTITY);
+    let reader = dec.read_info().map_err(png_error)?;
+    let info = reader.info();
+    let (w, h) = (info.width, info.height);
+    let channels = match (info.color_type, info.bit_depth, info.interlaced) {
+        (png::ColorType::Rgb, png::BitDepth::Eight, false) => 3,
+        (png::ColorType::Rgba, png::BitDepth::Eight, false) => 4,
+        (color, depth, _) => return Err(ImageError::UnsupportedPng { path: path_buf(), color, depth }),
+    };
+    let text = info.uncompressed_latin1_text.iter().find(|t| t.keyword == WINDOW_KEY);
+    let (window, has_window) = match text {
+        Some(t) => (
+            Window::from_text(&t.text)
+                .ok_or_else(|| ImageError::MalformedWindow { path: path_buf(), text: t.text.clone() })?,
+            true,
+        ),
+        None => (Window::full(w, h), false),
+    };
+    let render = info.uncompressed_latin1_text.iter().find(|t| t.keyword == RENDER_KEY);
+    let render = render.map(|t| t.text.clone());
+    check_size(path, &window, w, h)?;
+    let header = TileHeader { window, has_window, render, format: ImageFormat::Png, channels };
+    Ok((header, reader))
+}
+
+/// Read a tile's header only (no pixels): a PNG's chunks before its image data, an EXR's header.
+pub fn read_tile_header(path: &Path) -> Result<TileHeader, ImageError> {
+    match ImageFormat::from_path(path)? {
+        ImageFormat::Png => Ok(open_png_tile(path)?.0),
+        ImageFormat::Exr => {
+            use exr::prelude::*;
+            let decode_error = |source| ImageError::DecodeExr { path: path.to_path_buf(), source };
+            let meta = exr::meta::MetaData::read_from_file(path, false).map_err(decode_error)?;
+            let header = meta
+                .headers
+                .first()
+                .ok_or_else(|| decode_error(exr::error::Error::Invalid("no layer".into())))?;
+            let pos = header.own_attributes.layer_position;
+            if pos.x() < 0 || pos.y() < 0 {
+                return Err(ImageError::NegativeLayerPosition { path: path.to_path_buf() });
+            }
+            let (res, disp) = (header.layer_size, header.shared_attributes.display_window);
+            let window = exr_window(pos, res, disp.size);
+            let render = match header.own_attributes.other.get(&Text::from(RENDER_KEY)) {
+                Some(AttributeValue::Text(t)) => Some(t.to_string()),
+                _ => None,
+            };
+            let has_alpha = header.channels.list.iter().any(|c| c.name == *"A");
+            check_size(path, &window, res.x() as u32, res.y() as u32)?;
+            let channels = if has_alpha { 4 } else { 3 };
+            Ok(TileHeader {
+                window,
+                has_window: !window.is_full(),
+                render,
+                format: ImageFormat::Exr,
+                channels,
+            })
+        }
+    }
+}
+
+/// An EXR layer's window in its display window.
+fn exr_window(
+    pos: exr::math::Vec2<i32>,
+    res: exr::math::Vec2<usize>,
+    full: exr::math::Vec2<usize>,
+) -> Window {
+    let (x0, y0) = (pos.x() as u32, pos.y() as u32);
+    Window {
+        x0,
+        y0,
+        x1: x0 + res.x() as u32,
+        y1: y0 + res.y() as u32,
+        full_width: full.x() as u32,
+        full_height: full.y() as u32,
+    }
+}
+
 /// Read a PNG or EXR written by `phongrt render` (any crop or tile of it).
 pub fn read_tile(path: &Path) -> Result<Tile, ImageError> {
     let path_buf = || path.to_path_buf();
-    let png_error = |source| ImageError::DecodePng { path: path_buf(), source };
     match ImageFormat::from_path(path)? {
         ImageFormat::Png => {
-            let f =
-                std::fs::File::open(path).map_err(|source| ImageError::Read { path: path_buf(), source })?;
-            let mut dec = png::Decoder::new(std::io::BufReader::new(f));
-            dec.set_transformations(png::Transformations::IDENTITY);
-            let mut reader = dec.read_info().map_err(png_error)?;
-            let info = reader.info();
-            let (w, h) = (info.width, info.height);
-            let channels = match (info.color_type, info.bit_depth) {
-                (png::ColorType::Rgb, png::BitDepth::Eight) => 3,
-                (png::ColorType::Rgba, png::BitDepth::Eight) => 4,
-                (color, depth) => return Err(ImageError::UnsupportedPng { path: path_buf(), color, depth }),
-            };
-            let text = info.uncompressed_latin1_text.iter().find(|t| t.keyword == WINDOW_KEY);
-            let (window, has_window) = match text {
-                Some(t) => (
-                    Window::from_text(&t.text).ok_or_else(|| ImageError::MalformedWindow {
-                        path: path_buf(),
-                        text: t.text.clone(),
-                    })?,
-                    true,
-                ),
-                None => (Window::full(w, h), false),
-            };
-            let render = info.uncompressed_latin1_text.iter().find(|t| t.keyword == RENDER_KEY);
-            let render = render.map(|t| t.text.clone());
+            let (header, mut reader) = open_png_tile(path)?;
+            let (w, h) = (header.window.width(), header.window.height());
             let mut data = vec![0u8; reader.output_buffer_size().ok_or(ImageError::PngTooLarge)?];
-            reader.next_frame(&mut data).map_err(png_error)?;
-            data.truncate(w as usize * h as usize * channels);
-            check_size(path, &window, w, h)?;
+            reader
+                .next_frame(&mut data)
+                .map_err(|source| ImageError::DecodePng { path: path_buf(), source })?;
+            data.truncate(w as usize * h as usize * header.channels);
+            let TileHeader { window, has_window, render, channels, .. } = header;
             Ok(Tile { window, pixels: TilePixels::Srgb8 { channels, data }, has_window, render })
         }
         ImageFormat::Exr => {
@@ -610,19 +733,10 @@ pub fn read_tile(path: &Path) -> Result<Tile, ImageError> {
             let layer = &img.layer_data;
             let (res, has_alpha, buf) = &layer.channel_data.pixels;
             let pos = layer.attributes.layer_position;
-            let disp = img.attributes.display_window;
-            let (w, h) = (res.x() as u32, res.y() as u32);
             if pos.x() < 0 || pos.y() < 0 {
                 return Err(ImageError::NegativeLayerPosition { path: path_buf() });
             }
-            let window = Window {
-                x0: pos.x() as u32,
-                y0: pos.y() as u32,
-                x1: pos.x() as u32 + w,
-                y1: pos.y() as u32 + h,
-                full_width: disp.size.x() as u32,
-                full_height: disp.size.y() as u32,
-            };
+            let window = exr_window(pos, *res, img.attributes.display_window.size);
             let render = match layer.attributes.other.get(&Text::from(RENDER_KEY)) {
                 Some(AttributeValue::Text(t)) => Some(t.to_string()),
                 _ => None,
@@ -633,7 +747,7 @@ pub fn read_tile(path: &Path) -> Result<Tile, ImageError> {
             } else {
                 buf.chunks_exact(4).flat_map(|c| [c[0], c[1], c[2]]).collect()
             };
-            check_size(path, &window, w, h)?;
+            check_size(path, &window, res.x() as u32, res.y() as u32)?;
             let has_window = !window.is_full();
             Ok(Tile { window, pixels: TilePixels::Linear { channels, data }, has_window, render })
         }

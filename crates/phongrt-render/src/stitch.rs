@@ -5,7 +5,7 @@ use std::path::{Path, PathBuf};
 
 use glam::Vec3;
 
-use crate::image_out::{self, EncodeOptions, ImageError, ImageFormat, Tile, TilePixels};
+use crate::image_out::{self, EncodeOptions, ImageError, ImageFormat, Tile, TileHeader, TilePixels};
 use crate::render_record::{RenderRecord, RENDER_KEY};
 use crate::{Image, Window};
 
@@ -38,21 +38,155 @@ pub struct Stitched {
 }
 
 /// Assemble `tiles` (in any order) into `output` (.png or .exr), replaced only by a complete
-/// file. Nothing is written unless every check passes.
+/// file. Nothing is written unless every check passes, and the checks (of the headers) come
+/// before any pixel is read: a tile claiming a huge size costs nothing. PNG tiles are streamed
+/// row by row into the output (memory: a few rows, whatever the frame's size); EXR tiles and
+/// their frame are held whole, so an EXR stitch that needs more than the memory budget
+/// ([`memory_budget`]) is refused.
 pub fn stitch(output: &Path, tiles: &[PathBuf]) -> Result<Stitched, StitchError> {
     let format = check_output(output, tiles)?;
     if tiles.is_empty() {
         refuse!("no tiles given");
     }
-    let mut read: Vec<(String, Tile)> = Vec::new();
+    let mut headers: Vec<(String, TileHeader)> = Vec::new();
     for p in tiles {
-        read.push((p.display().to_string(), image_out::read_tile(p)?));
+        headers.push((p.display().to_string(), image_out::read_tile_header(p)?));
     }
-    check_tiles(&read)?;
-    let bytes = assemble(&read, format, output)?;
-    image_out::write_atomically(output, &bytes)?;
-    let w = &read[0].1.window;
-    Ok(Stitched { width: w.full_width, height: w.full_height, tiles: read.len() })
+    check_tiles(&headers)?;
+    let first = &headers[0].1;
+    let (fw, fh) = (first.window.full_width, first.window.full_height);
+    check_memory(&headers, memory_budget())?;
+    match (first.format, format) {
+        (ImageFormat::Png, ImageFormat::Png) => stream_png(output, tiles, &headers)?,
+        (ImageFormat::Png, ImageFormat::Exr) => refuse!(
+            "{}: PNG tiles are 8-bit sRGB; stitch them to .png (EXR output needs EXR tiles)",
+            output.display()
+        ),
+        (ImageFormat::Exr, _) => {
+            let mut read: Vec<(String, Tile)> = Vec::new();
+            for (p, (name, h)) in tiles.iter().zip(&headers) {
+                let t = image_out::read_tile(p)?;
+                if (t.window, &t.render) != (h.window, &h.render) {
+                    refuse!("{name}: changed while being stitched");
+                }
+                read.push((name.clone(), t));
+            }
+            let bytes = assemble_linear(&read, format)?;
+            image_out::write_atomically(output, &bytes)?;
+        }
+    }
+    Ok(Stitched { width: fw, height: fh, tiles: headers.len() })
+}
+
+/// The memory this machine lets a render or a stitch use: `PHONGRT_MAX_MEMORY` (bytes) if set, else
+/// `MemAvailable` from /proc/meminfo; `None` when neither says.
+pub fn memory_budget() -> Option<u64> {
+    if let Some(v) = std::env::var_os("PHONGRT_MAX_MEMORY") {
+        return v.to_str().and_then(|s| s.trim().parse().ok());
+    }
+    let info = std::fs::read_to_string("/proc/meminfo").ok()?;
+    let line = info.lines().find(|l| l.starts_with("MemAvailable:"))?;
+    let kb: u64 = line.split_whitespace().nth(1)?.parse().ok()?;
+    Some(kb * 1024)
+}
+
+/// Bytes a stitch of these (checked) tiles needs, estimated from their headers.
+/// - PNG, streamed: the output row and, per tile, its decoder (two rows, the inflate window and
+///   the read buffer) and the encoder's deflate state.
+/// - EXR, held whole: per frame pixel, each tile's decoded RGBA floats (16 bytes) and their copy
+///   (12 or 16), the frame's samples (12 or 16), its image and alpha (16) and the encoded file
+///   (up to 16): 72 bytes with alpha, as measured by the issue (53) rounded up.
+pub fn stitch_memory(headers: &[(String, TileHeader)]) -> u64 {
+    let first = &headers[0].1;
+    let (fw, fh, ch) =
+        (first.window.full_width as u64, first.window.full_height as u64, first.channels as u64);
+    match first.format {
+        ImageFormat::Png => {
+            let per_tile: u64 =
+                headers.iter().map(|(_, h)| 2 * h.window.width() as u64 * ch + (96 << 10)).sum();
+            fw * ch * 2 + per_tile + (1 << 20)
+        }
+        ImageFormat::Exr => fw * fh * 72,
+    }
+}
+
+/// Refuse a stitch that needs more than `budget` bytes.
+fn check_memory(headers: &[(String, TileHeader)], budget: Option<u64>) -> Result<(), StitchError> {
+    let need = stitch_memory(headers);
+    let Some(budget) = budget.filter(|&b| need > b) else {
+        return Ok(());
+    };
+    let w = &headers[0].1.window;
+    let gb = |b: u64| format!("{:.2} GB", b as f64 / 1e9);
+    let how = match headers[0].1.format {
+        ImageFormat::Exr => "EXR tiles and their frame are held whole; PNG tiles are streamed row by row",
+        ImageFormat::Png => "PNG tiles are streamed row by row",
+    };
+    refuse!(
+        "the {}x{} frame needs about {} in memory, more than the {} allowed (PHONGRT_MAX_MEMORY, or \
+         MemAvailable); {how}",
+        w.full_width,
+        w.full_height,
+        gb(need),
+        gb(budget)
+    )
+}
+
+/// Stream PNG tiles into `output` one frame row at a time: each row is put together from the
+/// tiles that cross it (opened at their first row, dropped after their last), then encoded.
+fn stream_png(output: &Path, tiles: &[PathBuf], headers: &[(String, TileHeader)]) -> Result<(), ImageError> {
+    use std::io::Write;
+    let first = &headers[0].1;
+    let (fw, fh, ch) = (first.window.full_width, first.window.full_height, first.channels);
+    let out_error = |source| ImageError::Write { path: output.to_path_buf(), source };
+    let target = std::fs::canonicalize(output).unwrap_or_else(|_| output.to_path_buf());
+    let dir = match target.parent() {
+        Some(d) if !d.as_os_str().is_empty() => d.to_path_buf(),
+        _ => PathBuf::from("."),
+    };
+    let name = target.file_name().map(|n| n.to_string_lossy().into_owned()).unwrap_or_default();
+    let mut tmp = crate::temp_file::TempFile::create(&dir, &name).map_err(out_error)?;
+    {
+        let mut sink = std::io::BufWriter::new(tmp.file());
+        let mut writer = image_out::png_writer(&mut sink, fw, fh, ch == 4, None, None)?;
+        let mut stream = writer.stream_writer().map_err(ImageError::EncodePng)?;
+        // Compute each row: the tiles in order of their first row, those open that cross it.
+        let mut order: Vec<usize> = (0..headers.len()).collect();
+        order.sort_by_key(|&i| (headers[i].1.window.y0, headers[i].1.window.x0));
+        let mut next = order.iter().peekable();
+        let mut open: Vec<(usize, image_out::PngReader)> = Vec::new();
+        let mut row = vec![0u8; fw as usize * ch];
+        for y in 0..fh {
+            while let Some(&&i) = next.peek().filter(|&&&i| headers[i].1.window.y0 == y) {
+                let (header, reader) = image_out::open_png_tile(&tiles[i])?;
+                if header != headers[i].1 {
+                    return Err(ImageError::Changed { path: tiles[i].clone() });
+                }
+                open.push((i, reader));
+                next.next();
+            }
+            for (i, reader) in &mut open {
+                let w = &headers[*i].1.window;
+                let decode_error = |source| ImageError::DecodePng { path: tiles[*i].clone(), source };
+                let src = reader.next_row().map_err(decode_error)?;
+                let src = src.ok_or_else(|| decode_error(png::DecodingError::IoError(truncated())))?;
+                let at = w.x0 as usize * ch;
+                row[at..at + src.data().len()].copy_from_slice(src.data());
+            }
+            open.retain(|(i, _)| headers[*i].1.window.y1 > y + 1);
+            stream.write_all(&row).map_err(out_error)?;
+        }
+        stream.finish().map_err(ImageError::EncodePng)?;
+        writer.finish().map_err(ImageError::EncodePng)?;
+        sink.flush().map_err(out_error)?;
+    }
+    tmp.file().sync_all().map_err(out_error)?;
+    tmp.persist(&target).map_err(out_error)
+}
+
+/// A tile's image data ended before its last row.
+fn truncated() -> std::io::Error {
+    std::io::Error::new(std::io::ErrorKind::UnexpectedEof, "image data ends before the last row")
 }
 
 /// The output's format, once it is known not to be one of the tiles and to be writable.
@@ -70,16 +204,16 @@ fn check_output(output: &Path, tiles: &[PathBuf]) -> Result<ImageFormat, StitchE
 }
 
 /// A tile's kind: ("PNG", channels) or ("EXR", channels).
-fn kind(t: &Tile) -> (&'static str, usize) {
-    match t.pixels {
-        TilePixels::Srgb8 { channels, .. } => ("PNG", channels),
-        TilePixels::Linear { channels, .. } => ("EXR", channels),
+fn kind(t: &TileHeader) -> (&'static str, usize) {
+    match t.format {
+        ImageFormat::Png => ("PNG", t.channels),
+        ImageFormat::Exr => ("EXR", t.channels),
     }
 }
 
 /// Refuse tiles of different frame sizes, kinds or renders, tiles that overlap, and tiles that
 /// leave pixels uncovered.
-fn check_tiles(tiles: &[(String, Tile)]) -> Result<(), StitchError> {
+fn check_tiles(tiles: &[(String, TileHeader)]) -> Result<(), StitchError> {
     let (first_name, first) = &tiles[0];
     let (fw, fh) = (first.window.full_width, first.window.full_height);
     for (name, t) in tiles {
@@ -121,7 +255,7 @@ fn check_tiles(tiles: &[(String, Tile)]) -> Result<(), StitchError> {
 }
 
 /// Refuse tiles of different renders (their digests differ) and tiles that record none.
-fn check_same_render(tiles: &[(String, Tile)]) -> Result<(), StitchError> {
+fn check_same_render(tiles: &[(String, TileHeader)]) -> Result<(), StitchError> {
     let mut records = Vec::new();
     for (name, t) in tiles {
         let Some(text) = &t.render else {
@@ -154,29 +288,16 @@ fn check_same_render(tiles: &[(String, Tile)]) -> Result<(), StitchError> {
     Ok(())
 }
 
-/// The checked tiles' pixels in one frame, encoded as `format`.
-fn assemble(tiles: &[(String, Tile)], format: ImageFormat, output: &Path) -> Result<Vec<u8>, StitchError> {
+/// The checked EXR tiles' pixels in one frame, encoded as `format`.
+fn assemble_linear(tiles: &[(String, Tile)], format: ImageFormat) -> Result<Vec<u8>, StitchError> {
     let first = &tiles[0].1;
     let (fw, fh) = (first.window.full_width, first.window.full_height);
-    let (is_png, channels) = (kind(first).0 == "PNG", kind(first).1);
-    let n = fw as usize * fh as usize * channels;
-    if is_png {
-        let mut data = vec![0u8; n];
-        for (_, t) in tiles {
-            let TilePixels::Srgb8 { data: src, .. } = &t.pixels else { unreachable!("checked above") };
-            blit_rows(&mut data, src, &t.window, fw, channels);
-        }
-        return match format {
-            ImageFormat::Png => Ok(image_out::encode_png8(fw, fh, channels == 4, &data, None, None)?),
-            ImageFormat::Exr => refuse!(
-                "{}: PNG tiles are 8-bit sRGB; stitch them to .png (EXR output needs EXR tiles)",
-                output.display()
-            ),
+    let TilePixels::Linear { channels, .. } = first.pixels else { unreachable!("EXR tiles, checked above") };
+    let mut data = vec![0f32; fw as usize * fh as usize * channels];
+    for (name, t) in tiles {
+        let TilePixels::Linear { data: src, .. } = &t.pixels else {
+            refuse!("{name}: not an EXR tile (it changed since its header was read)");
         };
-    }
-    let mut data = vec![0f32; n];
-    for (_, t) in tiles {
-        let TilePixels::Linear { data: src, .. } = &t.pixels else { unreachable!("checked above") };
         blit_rows(&mut data, src, &t.window, fw, channels);
     }
     let mut img = Image::new(fw, fh);

@@ -22,10 +22,38 @@ pub fn srgb_to_linear(c: f32) -> f32 {
     }
 }
 
+/// Decode an image file that is a regular file (after following links): a FIFO, device or
+/// directory is refused before it is opened, and the open uses `O_NONBLOCK`, so a path swapped
+/// for a FIFO in between cannot block either (what was opened is checked again). The format
+/// comes from the extension, or from the contents when the extension names none.
+pub fn decode_regular_file(path: &Path) -> Result<image::DynamicImage, String> {
+    use std::os::unix::fs::OpenOptionsExt;
+    let not_regular = |m: &std::fs::Metadata| !m.is_file();
+    let meta = std::fs::metadata(path).map_err(|e| format!("cannot read: {e}"))?;
+    if not_regular(&meta) {
+        return Err("not a regular file".into());
+    }
+    let file = std::fs::OpenOptions::new()
+        .read(true)
+        .custom_flags(libc::O_NONBLOCK)
+        .open(path)
+        .map_err(|e| format!("cannot read: {e}"))?;
+    if file.metadata().map_or(true, |m| not_regular(&m)) {
+        return Err("not a regular file".into());
+    }
+    let reader = std::io::BufReader::new(file);
+    let reader = match image::ImageFormat::from_path(path) {
+        Ok(format) => image::ImageReader::with_format(reader, format),
+        Err(_) => image::ImageReader::new(reader).with_guessed_format().map_err(|e| e.to_string())?,
+    };
+    reader.decode().map_err(|e| e.to_string())
+}
+
 impl Texture {
     /// Read an 8-bit image file as sRGB. Errors are one line naming the file.
     pub fn load(path: &Path) -> Result<Texture, String> {
-        let img = image::open(path).map_err(|e| format!("{}: cannot decode texture: {e}", path.display()))?;
+        let img = decode_regular_file(path)
+            .map_err(|e| format!("{}: cannot decode texture: {e}", path.display()))?;
         let rgb = img.to_rgb8();
         let lut: Vec<f32> = (0..256).map(|i| srgb_to_linear(i as f32 / 255.0)).collect();
         let texels =

@@ -290,8 +290,8 @@ impl Environment {
     /// Read an equirectangular `.hdr` or `.exr` map (linear radiance). One-line error naming the
     /// file if it is missing, cannot be decoded, or holds a non-finite or negative value.
     pub fn load_map(path: &Path) -> Result<Texture, String> {
-        let img =
-            image::open(path).map_err(|e| format!("{}: cannot read environment map: {e}", path.display()))?;
+        let img = crate::texture::decode_regular_file(path)
+            .map_err(|e| format!("{}: cannot read environment map: {e}", path.display()))?;
         let rgb = img.to_rgb32f();
         let texels: Vec<Vec3> = rgb.pixels().map(|p| Vec3::new(p[0], p[1], p[2])).collect();
         if let Some(i) = texels.iter().position(|t| !t.is_finite() || t.min_element() < 0.0) {
