@@ -6,7 +6,7 @@ use super::conic::{
 };
 use super::domain::{clamp_to_triangle, edge_band, inside, near_domain, on_ray};
 use super::newton::newton_step;
-use super::poly::solve_cubic_flagged;
+use super::poly::{monic_cubic_roots, solve_cubic_flagged};
 use super::PatchHit;
 use crate::phong::patch::Patch;
 use crate::phong::real::{Real, V3};
@@ -64,9 +64,15 @@ pub(super) fn analytic_projected<T: Real>(
         // The ray lies in the patch's plane (a flat patch seen edge-on): no isolated hit.
         return (None, Ambiguity::default());
     }
+    let ray = LocalRay { o, d, tmin, tmax, polish };
+    // The lean solve decides the clear cases; what rests on rounding goes the full way below.
+    if polish {
+        if let Some(answer) = lean(p, &ray, &cf, &cg) {
+            return answer;
+        }
+    }
     // Compute the pencil's degenerate members, then offer the roots on their lines.
     let members = degenerate_members(&cf, &cg);
-    let ray = LocalRay { o, d, tmin, tmax, polish };
     let mut s = Search::new(members.near_multiple);
     for &x in &members.x[..members.n] {
         if s.member(p, &ray, &cf, &cg, x) {
@@ -262,4 +268,224 @@ impl<T: Real> Search<T> {
         }
         (u, v, t, diverged)
     }
+}
+
+/// The lean analytic solve: one degenerate member of the pencil (the root of the cubic whose
+/// member is most clearly a real line pair), its two lines met with the other conic, and Newton
+/// polish of the nearest root in the domain only. `None` where the answer would rest on a step
+/// within rounding (a degenerate or near-flat pencil, no clear line pair, a near tangency, a
+/// spurious root, a polish that diverged): then the full search of [`analytic_projected`]
+/// decides, with its ambiguity flags.
+fn lean<T: Real>(
+    p: &Patch<T>,
+    ray: &LocalRay<T>,
+    cf: &Conic<T>,
+    cg: &Conic<T>,
+) -> Option<(Option<PatchHit<T>>, Ambiguity)> {
+    // Compute one member: every intersection point of the two conics lies on it.
+    let (m, n) = (sym_of(cf), sym_of(cg));
+    let (x, near_multiple) = line_pair_root(&m, &n, cf.norm(), cg.norm())?;
+    let (h, other) = if x.abs() <= T::ONE {
+        (std::array::from_fn(|i| x * m[i] + n[i]), cf)
+    } else {
+        let ix = T::ONE / x;
+        (std::array::from_fn(|i| m[i] + ix * n[i]), cg)
+    };
+    let lines = split_line_pair(&h)?;
+    // Compute the roots on its lines near the domain, gated by the distance to the ray.
+    let s = Search::<T>::new(near_multiple);
+    let (tol2, polish_band) = (s.size_tol * s.size_tol, edge_band::<T>() * T::from_f64(4.0));
+    let (o, d) = (ray.o, ray.d);
+    let inv_dd = T::ONE / d.dot(d);
+    let mut cand = [(T::ZERO, T::ZERO, T::ZERO); 4];
+    let mut k = 0;
+    for l in lines {
+        let (pts, n, near_tangent) = line_conic(l, other);
+        if near_tangent {
+            return None;
+        }
+        for &(u, v) in &pts[..n] {
+            if !near_domain(u, v, s.far) {
+                continue;
+            }
+            let q = p.eval_local(u, v) - o;
+            let t = q.dot(d) * inv_dd;
+            let r = q - d * t;
+            if !(r.dot(r) <= tol2) {
+                return None;
+            }
+            // Clearly outside the domain: no polish can bring it in.
+            if near_domain(u, v, polish_band) {
+                cand[k] = (u, v, t);
+                k += 1;
+            }
+        }
+    }
+    nearest_polished(p, ray, &mut cand[..k], near_multiple)
+}
+
+/// Polish the roots `cand` nearest first, and answer with the first one inside the domain and
+/// the interval; `None` if a polish diverged (the full search decides).
+fn nearest_polished<T: Real>(
+    p: &Patch<T>,
+    ray: &LocalRay<T>,
+    cand: &mut [(T, T, T)],
+    near_multiple: bool,
+) -> Option<(Option<PatchHit<T>>, Ambiguity)> {
+    let (o, d) = (ray.o, ray.d);
+    let mut ambiguous = near_multiple;
+    for i in 0..cand.len() {
+        // The nearest of those left (there are at most 4).
+        let j = (i + 1..cand.len()).fold(i, |j, k| if cand[k].2 < cand[j].2 { k } else { j });
+        cand.swap(i, j);
+        let (u, v, t) = cand[i];
+        let (pu, pv, pt) = newton_step(p, o, d, u, v, t).unwrap_or((u, v, t));
+        if !on_ray(p, o, d, pu, pv, pt) || (!inside(pu, pv) && inside(u, v)) {
+            return None; // Newton diverged or jumped out: a near tangency
+        }
+        if !inside(pu, pv) {
+            ambiguous |= near_domain(pu, pv, edge_band::<T>());
+        } else if pt > ray.tmin && pt < ray.tmax {
+            let (u, v) = clamp_to_triangle(pu, pv);
+            return Some((Some(PatchHit { t: pt, u, v }), Ambiguity { miss: ambiguous, hit: false }));
+        }
+    }
+    Some((None, Ambiguity { miss: ambiguous, hit: false }))
+}
+
+/// A symmetric 3×3 matrix by its entries `[s00, s11, s22, s01, s02, s12]`.
+type Sym<T> = [T; 6];
+
+/// The conic's matrix (see [`Conic`]).
+#[inline(always)]
+fn sym_of<T: Real>(k: &Conic<T>) -> Sym<T> {
+    let h = T::from_f64(0.5);
+    let [a, b, c, d, e, f] = k.k;
+    [a, b, f, c * h, d * h, e * h]
+}
+
+/// The adjugate of a symmetric matrix (symmetric too).
+#[inline(always)]
+fn sym_adj<T: Real>(m: &Sym<T>) -> Sym<T> {
+    let [m00, m11, m22, m01, m02, m12] = *m;
+    [
+        m11 * m22 - m12 * m12,
+        m00 * m22 - m02 * m02,
+        m00 * m11 - m01 * m01,
+        m02 * m12 - m01 * m22,
+        m01 * m12 - m02 * m11,
+        m01 * m02 - m00 * m12,
+    ]
+}
+
+/// `tr(A B)` of two symmetric matrices.
+#[inline(always)]
+fn sym_trace_prod<T: Real>(a: &Sym<T>, b: &Sym<T>) -> T {
+    let off = a[3] * b[3] + a[4] * b[4] + a[5] * b[5];
+    a[0] * b[0] + a[1] * b[1] + a[2] * b[2] + off + off
+}
+
+/// The root `x` of `det(x M + N)` whose member is most clearly a real line pair, and whether
+/// two roots are within rounding of a double root (as [`solve_cubic_flagged`] tells them).
+/// `None` for a pencil the full search handles: all members or `M` degenerate, a cubic that
+/// drops degree, or no member clearly a line pair. `nm`, `nn`: the conics' sizes.
+///
+/// A degenerate member has rank 2, and `adj(H) = -p pᵀ` for a pair of real lines through `p`,
+/// `+p pᵀ` for a point-like pair of complex lines: the sign of `tr adj(x M + N)`, a quadratic
+/// in `x`, tells them apart. Two real conics meet in 4 real points (three real members, all
+/// line pairs), 2 (one real member, a line pair) or none (three, one a line pair): there is
+/// always a line pair to take, and any one carries every intersection point.
+fn line_pair_root<T: Real>(m: &Sym<T>, n: &Sym<T>, nm: T, nn: T) -> Option<(T, bool)> {
+    let (am, an) = (sym_adj(m), sym_adj(n));
+    // Compute det(x M + N) = x³ det M + x² tr(adj(M) N) + x tr(M adj(N)) + det N.
+    let c3 = m[0] * am[0] + m[3] * am[3] + m[4] * am[4];
+    let c2 = sym_trace_prod(&am, n);
+    let c1 = sym_trace_prod(m, &an);
+    let c0 = n[0] * an[0] + n[3] * an[3] + n[4] * an[4];
+    let term = nm.max(nn);
+    let cubic_scale = term * term * term;
+    let cn = c3.abs().max(c2.abs()).max(c1.abs()).max(c0.abs());
+    if c3.abs() <= T::gamma(64) * cubic_scale || c3.abs() <= T::gamma(16) * cn {
+        return None;
+    }
+    let (a, b, c) = (c2 / c3, c1 / c3, c0 / c3);
+    let q = (a * a - T::from_f64(3.0) * b) * T::from_f64(1.0 / 9.0);
+    let r = (T::from_f64(2.0) * a * a * a - T::from_f64(9.0) * a * b + T::from_f64(27.0) * c)
+        * T::from_f64(1.0 / 54.0);
+    let near_multiple = (r * r - q * q * q).abs() <= T::gamma(256) * (r * r).max((q * q * q).abs());
+    let (roots, k) = monic_cubic_roots(a, b, c)?;
+    // Compute tr adj(x M + N) = x² tr adj(M) + x t1 + tr adj(N), relative to the member's size.
+    let t2 = am[0] + am[1] + am[2];
+    let t0 = an[0] + an[1] + an[2];
+    let mixed = |i: usize, j: usize, ij: usize| m[i] * n[j] + n[i] * m[j] - (m[ij] * n[ij] + m[ij] * n[ij]);
+    let t1 = mixed(0, 1, 3) + mixed(0, 2, 4) + mixed(1, 2, 5);
+    let score = |x: T| {
+        if x.abs() <= T::ONE {
+            let s = x.abs() * nm + nn;
+            ((x * t2 + t1) * x + t0) / (s * s)
+        } else {
+            let ix = T::ONE / x;
+            let s = nm + ix.abs() * nn;
+            ((t0 * ix + t1) * ix + t2) / (s * s)
+        }
+    };
+    let (mut best, mut best_score) = (roots[0], score(roots[0]));
+    for &x in &roots[1..k] {
+        let sx = score(x);
+        if sx < best_score {
+            (best, best_score) = (x, sx);
+        }
+    }
+    if !(best_score < -T::gamma(64).sqrt()) {
+        return None;
+    }
+    // Compute the chosen root to full precision (the quotient's roots carry the first's error).
+    if best != roots[0] {
+        for _ in 0..2 {
+            let f = ((best + a) * best + b) * best + c;
+            let df = (T::from_f64(3.0) * best + a + a) * best + b;
+            let nx = best - f / df;
+            if nx.is_finite() {
+                best = nx;
+            }
+        }
+    }
+    Some((best, near_multiple))
+}
+
+/// Split a degenerate conic `h` known to be a pair of real lines well apart (the member
+/// [`line_pair_root`] chose) into its two lines `(l0, l1, l2)`: `l0 u + l1 v + l2 = 0`, as
+/// [`split_degenerate`] does, without its rank and point-like tests.
+#[inline(always)]
+fn split_line_pair<T: Real>(h: &Sym<T>) -> Option<[[T; 3]; 2]> {
+    // adj(H) = -p pᵀ for two real lines meeting at p (Richter-Gebert, §11.3).
+    let b = sym_adj(h);
+    let (col, bii) = if b[0] <= b[1] && b[0] <= b[2] {
+        ([b[0], b[3], b[4]], b[0])
+    } else if b[1] <= b[2] {
+        ([b[3], b[1], b[5]], b[1])
+    } else {
+        ([b[4], b[5], b[2]], b[2])
+    };
+    if !(bii < T::ZERO) {
+        return None;
+    }
+    let inv = T::ONE / (-bii).sqrt();
+    let p = [col[0] * inv, col[1] * inv, col[2] * inv];
+    let [h00, h11, h22, h01, h02, h12] = *h;
+    // H + [p]× has rank 1: its largest entry's row and column are the two lines.
+    let c = [[h00, h01 + p[2], h02 - p[1]], [h01 - p[2], h11, h12 + p[0]], [h02 + p[1], h12 - p[0], h22]];
+    let (mut bi, mut bj, mut bm) = (0, 0, T::ZERO);
+    for (r, row) in c.iter().enumerate() {
+        for (s, x) in row.iter().enumerate() {
+            let a = x.abs();
+            if a > bm {
+                (bm, bi, bj) = (a, r, s);
+            }
+        }
+    }
+    if !(bm > T::ZERO) {
+        return None;
+    }
+    Some([c[bi], [c[0][bj], c[1][bj], c[2][bj]]])
 }

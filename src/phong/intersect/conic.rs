@@ -135,7 +135,7 @@ pub(super) fn line_conic<T: Real>(l: [T; 3], k: &Conic<T>) -> ([(T, T); 2], usiz
     let s2 = a * rx * rx + b * ry * ry + c * rx * ry;
     let s1 = two * a * qx * rx + two * b * qy * ry + c * (qx * ry + qy * rx) + d * rx + e * ry;
     let s0 = k.at(qx, qy);
-    let (mut r, mut n) = solve_quadratic(s2, s1, s0);
+    let (mut r, mut n) = line_quadratic(s2, s1, s0);
     let mut near_tangent = false;
     if n == 0 && s2 != z {
         // Near tangency the discriminant's sign is lost in the rounding of everything upstream
@@ -156,6 +156,32 @@ pub(super) fn line_conic<T: Real>(l: [T; 3], k: &Conic<T>) -> ([(T, T); 2], usiz
         out[i] = (qx + r[i] * rx, qy + r[i] * ry);
     }
     (out, n, near_tangent)
+}
+
+/// The real roots of `s2 x² + s1 x + s0` along a unit line, as [`solve_quadratic`] finds them
+/// (the same relative tests), without its normalisation: the coefficients are a conic's
+/// values along a unit line, of the conic's size.
+#[inline(always)]
+fn line_quadratic<T: Real>(s2: T, s1: T, s0: T) -> ([T; 2], usize) {
+    let z = T::ZERO;
+    let lin = s1.abs().max(s0.abs());
+    if !(s2.abs() > T::gamma(4) * lin * T::from_f64(1e-3)) || !(lin + s2.abs()).is_finite() {
+        return solve_quadratic(s2, s1, s0); // a degree drop (or bad input): the careful way
+    }
+    let disc = s1 * s1 - T::from_f64(4.0) * s2 * s0;
+    if disc < z {
+        // Tangency within rounding: keep the double root.
+        if disc > -T::gamma(8) * (s1 * s1 + (T::from_f64(4.0) * s2 * s0).abs()) {
+            return ([-s1 / (s2 + s2), z], 1);
+        }
+        return ([z, z], 0);
+    }
+    let qq = T::from_f64(-0.5) * (s1 + disc.sqrt().copysign(s1));
+    if qq == z {
+        return ([z, z], 1);
+    }
+    let (r0, r1) = (qq / s2, s0 / qq);
+    ([r0.min(r1), r0.max(r1)], 2)
 }
 
 /// A unit vector pair `(n1, n2)` orthogonal to `d` and to each other: the ray's two planes.

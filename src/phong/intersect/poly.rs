@@ -100,3 +100,74 @@ pub(super) fn solve_cubic_flagged<T: Real>(c3: T, c2: T, c1: T, c0: T) -> ([T; 3
     }
     (roots, n, near_multiple)
 }
+
+/// An upper bound of `y^(1/3)` for `y >= 0`, without `cbrt`: a bit-level estimate, then one
+/// Newton step, which by the AM–GM inequality (`(2e + y/e²)/3 >= y^(1/3)`) never lands below
+/// the root, widened by a few roundings.
+#[inline(always)]
+fn cbrt_upper(y: f64) -> f64 {
+    // Dividing the exponent by 3: an estimate within a few percent for normal `y`.
+    let e = f64::from_bits(y.to_bits() / 3 + 0x2A9F_7893_782D_A1CE);
+    (e + e + y / (e * e)) * (1.0 / 3.0) * (1.0 + 1e-12)
+}
+
+/// The real roots of the monic cubic `x³ + a x² + b x + c`, without `acos`, `cos` or `cbrt`
+/// (Kahan, "To solve a real cubic equation", 1986): Newton's method from a bound past the root
+/// on the far side of the inflection point converges to it monotonically, and the quotient
+/// quadratic gives the other two. The Newton root comes first. `None` if Newton did not settle
+/// within its step cap (then the caller takes [`solve_cubic_flagged`]).
+pub(super) fn monic_cubic_roots<T: Real>(a: T, b: T, c: T) -> Option<([T; 3], usize)> {
+    let z = T::ZERO;
+    let three = T::from_f64(3.0);
+    // Compute the start: the inflection point X, moved past the root by Kahan's bound.
+    let x_inf = -a / three;
+    let eval = |x: T| (((x + a) * x + b) * x + c, (three * x + a + a) * x + b);
+    let (q, dq) = eval(x_inf);
+    let s = if q < z { -T::ONE } else { T::ONE };
+    let mut r = T::from_f64(cbrt_upper(q.abs().to_f64())) * (T::ONE + T::gamma(2));
+    if dq < z {
+        r = T::from_f64(1.324718) * r.max((-dq).sqrt());
+    }
+    let mut x = x_inf - s * r;
+    // Compute the root: Newton steps move x towards X monotonically until rounding stops them.
+    if q != z {
+        let mut settled = false;
+        for _ in 0..24 {
+            let (f, df) = eval(x);
+            if df == z {
+                settled = true;
+                break;
+            }
+            let nx = x - f / df;
+            if !(s * nx > s * x) {
+                settled = nx.is_finite();
+                break;
+            }
+            x = nx;
+        }
+        if !settled || !x.is_finite() {
+            return None;
+        }
+    } else {
+        x = x_inf;
+    }
+    // Compute the quotient quadratic x² + b1 x + c2 (Horner), in Kahan's stabler form when the
+    // constant term is better taken from c.
+    let mut b1 = x + a;
+    let mut c2 = x * b1 + b;
+    if x != z && (x * x * x).abs() > (c / x).abs() {
+        c2 = -c / x;
+        b1 = (c2 - b) / x;
+    }
+    // Its real roots without cancellation; a complex pair is dropped (a pair within rounding
+    // of a double root is flagged by the caller's discriminant test).
+    let disc = b1 * b1 - T::from_f64(4.0) * c2;
+    if !(disc >= z) {
+        return Some(([x, z, z], 1));
+    }
+    let qq = T::from_f64(-0.5) * (b1 + disc.sqrt().copysign(b1));
+    if qq == z {
+        return Some(([x, z, z], 2)); // b1 = c2 = 0: a double root at 0
+    }
+    Some(([x, qq, c2 / qq], 3))
+}
