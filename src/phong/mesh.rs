@@ -392,6 +392,12 @@ impl PhongMesh {
         p.shading_normal_with(u, v, V3::from(dir), rule).map(Vec3::from).filter(|n| n.is_finite())
     }
 
+    /// Patch `prim`'s [`Patch::bump_bound`] `(height, reach)`, or `None` where it is not finite.
+    pub fn bump_bound(&self, prim: u32) -> Option<(f32, f32)> {
+        let (h, r) = self.patches.get(prim as usize)?.bump_bound();
+        (h.is_finite() && r.is_finite()).then_some((h, r))
+    }
+
     /// The shadow-ray origin lift at `(u, v)` of patch `prim` on the side `side` of the vertex
     /// normals (+1 or -1): see [`Patch::shadow_lift`]. Zero where it is not finite.
     pub fn shadow_lift(&self, prim: u32, u: f32, v: f32, side: f32) -> Vec3 {

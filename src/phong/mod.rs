@@ -35,5 +35,5 @@ pub use intersect::{
     intersect, intersect_in_hull_traced, intersect_traced, solve_cubic, solve_quadratic, Method, PatchHit,
     TestOutcome,
 };
-pub use patch::{adapt_shading_normal, control_points, Patch, ShadingNormal};
+pub use patch::{adapt_shading_normal, control_points, flat_offset_height, Patch, ShadingNormal};
 pub use real::{Real, V3};

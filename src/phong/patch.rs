@@ -478,6 +478,23 @@ impl<T: Real> Patch<T> {
         lift * self.scale
     }
 
+    /// How far the patch's own shape can rise into a shadow ray leaving it, world space:
+    /// `(height, reach)`. `height` is the largest offset of the patch from its flat triangle along
+    /// the triangle's normal `m` (see [`flat_offset_height`]), `reach` the diagonal of the patch's
+    /// bounds. Zero height for a flat patch. The renderer lets a shadow ray pass the C0 bumps of
+    /// its own mesh only within these (see its terminator rule).
+    pub fn bump_bound(&self) -> (T, T) {
+        // Compute the flat triangle's unit normal: (p1 - p0) x (p2 - p0).
+        let m = (self.a + self.d).cross(self.b + self.e);
+        let len = m.length();
+        if !(len > T::ZERO) {
+            return (T::ZERO, T::ZERO);
+        }
+        let m = m * (T::ONE / len);
+        let height = flat_offset_height(self.a.dot(m), self.b.dot(m), self.c.dot(m));
+        (height * self.scale, (self.hi - self.lo).length() * self.scale)
+    }
+
     /// World-space bounds.
     pub fn bounds(&self) -> (V3<T>, V3<T>) {
         let lo = self.lo * self.scale + self.center;
@@ -529,6 +546,32 @@ impl<T: Real> Patch<T> {
             + self.f.abs();
         let err = terms * (self.scale * T::gamma(12)) + (p.abs() + self.center.abs()) * T::gamma(2);
         (p, err)
+    }
+}
+
+/// The largest `|q(u, v)|` over the domain `u, v >= 0, u + v <= 1` of the offset of a patch
+/// `A u² + B v² + C uv + D u + E v + F` from its flat triangle, along a unit direction `m`, given
+/// `a = A·m`, `b = B·m`, `c = C·m`: `q = a(u² - u) + b(v² - v) + c uv`, zero at the corners.
+/// Exact: the largest of the edges' extremes (`a/4`, `b/4`, `(a + b - c)/4` in size, at their
+/// midpoints) and the interior critical point where it lies in the domain.
+pub fn flat_offset_height<T: Real>(a: T, b: T, c: T) -> T {
+    let quarter = T::from_f64(0.25);
+    // Compute the edges' extremes.
+    let mut h = (a.abs().max(b.abs())).max((a + b - c).abs()) * quarter;
+    // Compute the interior critical point: [2a c; c 2b] (u, v) = (a, b).
+    let two = T::ONE + T::ONE;
+    let det = two * two * a * b - c * c;
+    if det.abs() > T::ZERO {
+        let u = (two * a * b - b * c) / det;
+        let v = (two * a * b - a * c) / det;
+        if u > T::ZERO && v > T::ZERO && u + v < T::ONE {
+            h = h.max((a * (u * u - u) + b * (v * v - v) + c * u * v).abs());
+        }
+    }
+    if h.is_finite() {
+        h
+    } else {
+        T::ZERO
     }
 }
 

@@ -346,6 +346,7 @@ pub fn shadow_ray(ray: &Ray, h: &phongrt::embree::Hit, light: Vec3) -> Option<(R
         entering: true,
         terminator: phongrt_render::Terminator::Plain,
         lift: Vec3::ZERO,
+        bumps: None,
     };
     Some((Ray::new(sp.offset_origin(light), light), cos))
 }

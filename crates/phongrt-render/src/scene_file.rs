@@ -407,7 +407,8 @@ impl Checker<'_> {
         }
         if let Some(s) = &r.terminator {
             if crate::Terminator::from_name(s).is_none() {
-                return Err(self.bad("render.terminator".into(), format!("{s:?} is not lift, plain or band")));
+                return Err(self
+                    .bad("render.terminator".into(), format!("{s:?} is not lift, lift-ng, plain or band")));
             }
         }
         Ok(())

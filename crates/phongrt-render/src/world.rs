@@ -189,9 +189,18 @@ pub enum Terminator {
     /// surface by Hanika's offset (see [`phongrt::phong::Patch::shadow_lift`]) where the true surface
     /// turns away from the light, so hard shadows follow the shading normal's terminator. The lift
     /// is refused where a short ray finds other geometry in its way (thin, two-sided and
-    /// non-manifold surfaces), and taken on the side the shading point is seen from. The default.
+    /// non-manifold surfaces), and taken on the side the shading point is seen from. The lift
+    /// fades in as the shading or the true normal's cosine to the light falls below
+    /// [`LIFT_CUTOFF`], and a shadow ray passes
+    /// the C0 bumps of its own mesh: a hit on the same object closer than the shading patch's
+    /// [`phongrt::phong::Patch::bump_bound`] reach and lower than its height above the shading
+    /// plane is skipped, so the cone points where patches meet at an angle leave no specks. The
+    /// default.
     #[default]
     Lift,
+    /// The lift rule before the bump pass: the lift fades on the true normal's `ng·l` and every
+    /// hit blocks (specks where the true normals of neighbouring patches disagree).
+    LiftNg,
     /// `max(0, n·l)` with shadow rays from the true surface: hard shadows follow each patch's own
     /// true-normal terminator (a sawtooth).
     Plain,
@@ -203,12 +212,14 @@ pub enum Terminator {
 
 impl Terminator {
     /// Every rule, the default first.
-    pub const ALL: [Terminator; 3] = [Terminator::Lift, Terminator::Plain, Terminator::Band];
+    pub const ALL: [Terminator; 4] =
+        [Terminator::Lift, Terminator::LiftNg, Terminator::Plain, Terminator::Band];
 
     /// The rule's name as the command line and scene files spell it.
     pub fn name(self) -> &'static str {
         match self {
             Terminator::Lift => "lift",
+            Terminator::LiftNg => "lift-ng",
             Terminator::Plain => "plain",
             Terminator::Band => "band",
         }
@@ -689,7 +700,10 @@ impl World {
                 }
                 let blocked = self.scene.occluded8_rays(&shadow_rays, active, true);
                 for (k, t) in traced.iter_mut().enumerate().filter(|(k, _)| active & (1 << k) != 0) {
-                    t[i] = Some(if blocked & (1 << k) != 0 { 0.0 } else { 1.0 });
+                    let passes = blocked & (1 << k) != 0
+                        && matches!(&arrivals[k], Some(Arrival::Surface { sp, .. })
+                            if self.passes_own_bumps(sp, shadow_rays[k].org, shadow_rays[k].dir, shadow_rays[k].tfar, counts));
+                    t[i] = Some(if blocked & (1 << k) == 0 || passes { 1.0 } else { 0.0 });
                 }
             }
         }
@@ -908,7 +922,7 @@ impl World {
         let o = self.shadow_origin(sp, dir, counts);
         counts.shadow += 1;
         if !self.any_transmissive() {
-            return if self.scene.occluded1(Ray::new(o, dir).with_range(0.0, tfar)) { 0.0 } else { 1.0 };
+            return if self.hard_shadow_clear(sp, o, dir, tfar, counts) { 1.0 } else { 0.0 };
         }
         let end = (tfar.is_finite()).then(|| o + tfar * dir);
         let mut ray = Ray::new(o, dir).with_range(0.0, tfar);
@@ -938,17 +952,19 @@ impl World {
     }
 
     /// The origin of a shadow ray along `dir`. With [`Terminator::Lift`], the surface point is
-    /// lifted by `w · lift`, where `w = clamp(1 - (ng·l) / LIFT_CUTOFF, 0, 1)` fades the lift in as
-    /// the true surface turns away from the light `l` (so it acts only near the terminator), and
-    /// only if a ray from the surface point to the lifted one meets nothing: the lift never moves
-    /// an origin through another sheet of geometry.
+    /// lifted by `w · lift`, where `w = clamp(1 - min(n·l, ng·l) / LIFT_CUTOFF, 0, 1)` fades the
+    /// lift in as the shading or the true normal turns away from the light `l` (so it acts only
+    /// near the terminator; [`Terminator::LiftNg`] fades on `ng·l` alone), and only if a ray from the
+    /// surface point to the lifted one meets nothing: the lift never moves an origin through
+    /// another sheet of geometry.
     pub fn shadow_origin(&self, sp: &SurfacePoint, dir: Vec3, counts: &mut RayCounts) -> Vec3 {
-        const LIFT_CUTOFF: f32 = 0.1;
         if sp.lift == Vec3::ZERO {
             return sp.offset_origin(dir);
         }
         let l = dir.normalize_or_zero();
-        let w = (1.0 - sp.ng.dot(l) / LIFT_CUTOFF).clamp(0.0, 1.0);
+        let cos_g = sp.ng.dot(l);
+        let cos = if sp.terminator == Terminator::LiftNg { cos_g } else { cos_g.min(sp.n.dot(l)) };
+        let w = (1.0 - cos / LIFT_CUTOFF).clamp(0.0, 1.0);
         if !(w > 0.0) || !(sp.n.dot(l) > 0.0) {
             return sp.offset_origin(dir);
         }
@@ -961,6 +977,50 @@ impl World {
         // The sum rounds: its error joins the point's.
         let lifted = SurfacePoint { p, p_error: sp.p_error + gamma(1) * p.abs(), ..*sp };
         lifted.offset_origin(dir)
+    }
+
+    /// Whether an opaque world lets light along `dir` over `(0, tfar)` reach the shading point:
+    /// the shadow ray from `o` (see [`World::shadow_origin`]) meets nothing, or only the C0 bumps
+    /// of the point's own mesh (see [`Terminator::Lift`]).
+    pub fn hard_shadow_clear(
+        &self,
+        sp: &SurfacePoint,
+        o: Vec3,
+        dir: Vec3,
+        tfar: f32,
+        counts: &mut RayCounts,
+    ) -> bool {
+        !self.scene.occluded1(Ray::new(o, dir).with_range(0.0, tfar))
+            || self.passes_own_bumps(sp, o, dir, tfar, counts)
+    }
+
+    /// Whether a shadow ray `(o, dir)` over `(0, tfar)` that some surface blocks is blocked only
+    /// by the C0 bumps of the shading point's own mesh (see [`Terminator::Lift`]): its hits, in
+    /// order, are all on the same object, within the bump bound's reach of the point and below
+    /// its height over the shading plane, and at most [`MAX_BUMP_HITS`] of them. Closest-hit
+    /// rays, traced only for a blocked shadow ray.
+    fn passes_own_bumps(
+        &self,
+        sp: &SurfacePoint,
+        o: Vec3,
+        dir: Vec3,
+        tfar: f32,
+        counts: &mut RayCounts,
+    ) -> bool {
+        let Some(b) = sp.bumps else { return false };
+        let mut tnear = 0.0;
+        for _ in 0..MAX_BUMP_HITS {
+            counts.terminator += 1;
+            let Some(hit) = self.scene.intersect1(Ray::new(o, dir).with_range(tnear, tfar)) else {
+                return true;
+            };
+            let d = o + hit.t * dir - sp.p;
+            if hit.geom_id != b.geom || d.length() > b.reach || d.dot(sp.n) > b.height {
+                return false;
+            }
+            tnear = hit.t.next_up();
+        }
+        false
     }
 
     /// The environment's light at a shading point, as the mean radiance over `env.samples`
@@ -1037,7 +1097,30 @@ pub struct SurfacePoint {
     /// The shadow-ray origin lift on the side the ray came from (zero for flat surfaces and
     /// unless the rule is [`Terminator::Lift`]).
     pub lift: Vec3,
+    /// Within what a shadow ray may pass the C0 bumps of its own mesh ([`Terminator::Lift`]
+    /// only; `None` elsewhere).
+    pub bumps: Option<BumpBound>,
 }
+
+/// Where a shadow ray from a Phong surface may pass the C0 bumps of its own mesh (see
+/// [`Terminator::Lift`]): hits on object `geom` at most `reach` from the shading point and at most
+/// `height` above its shading plane (world space, from [`phongrt::phong::Patch::bump_bound`]).
+#[derive(Clone, Copy, Debug, PartialEq)]
+pub struct BumpBound {
+    /// The shading point's object (its Embree geometry id).
+    pub geom: u32,
+    /// Largest height above the shading plane of a hit that is passed.
+    pub height: f32,
+    /// Largest distance from the shading point of a hit that is passed.
+    pub reach: f32,
+}
+
+/// The cosine to the light below which [`Terminator::Lift`] fades the shadow-ray lift in: the
+/// smaller of the shading and true normals' (the true normal's alone with [`Terminator::LiftNg`]).
+pub const LIFT_CUTOFF: f32 = 0.1;
+
+/// The most hits on its own mesh's bumps a shadow ray passes (see [`Terminator::Lift`]).
+pub const MAX_BUMP_HITS: usize = 4;
 
 impl SurfacePoint {
     /// The light a direction `l` (unit) brings in, as a factor of `n·l`: `max(0, n·l)` except
@@ -1206,20 +1289,25 @@ impl Object {
         let ng = if entering { ng_raw } else { -ng_raw };
         // The shading normal on the same side as the geometric one.
         let n = if n_shade.dot(ng) < 0.0 { -n_shade } else { n_shade };
-        let (terminator, lift) = match (self.mode, &self.phong) {
+        let (terminator, lift, bumps) = match (self.mode, &self.phong) {
             (ObjectMode::Phong { .. }, Some(pm)) => {
-                let lift = if terminator == Terminator::Lift {
+                let lifts = matches!(terminator, Terminator::Lift | Terminator::LiftNg);
+                let lift = if lifts {
                     // The side the ray came from, relative to the vertex normals.
                     let side = if entering { 1.0 } else { -1.0 };
                     pm.shadow_lift(hit.prim_id, hit.u, hit.v, side)
                 } else {
                     Vec3::ZERO
                 };
-                (terminator, lift)
+                let bumps = (terminator == Terminator::Lift)
+                    .then(|| pm.bump_bound(hit.prim_id))
+                    .flatten()
+                    .map(|(height, reach)| BumpBound { geom: hit.geom_id, height, reach });
+                (terminator, lift, bumps)
             }
-            _ => (Terminator::Plain, Vec3::ZERO),
+            _ => (Terminator::Plain, Vec3::ZERO, None),
         };
-        SurfacePoint { p, p_error, ng, n, entering, terminator, lift }
+        SurfacePoint { p, p_error, ng, n, entering, terminator, lift, bumps }
     }
 
     /// `(1-u-v) p0 + u p1 + v p2` with its rounding error bound (pbrt-v4's barycentric bound).
