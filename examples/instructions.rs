@@ -4,13 +4,15 @@
 //! instructions are those of `counted_work` alone (callgrind `--toggle-collect`).
 //!
 //! Run: `cargo run --release --example instructions -- SCENE primary|shadow phong|flat|OUTCOME`,
-//! SCENE `sphere-120` or an OBJ file, OUTCOME a [`TestOutcome`] name with `-` for spaces.
+//! SCENE `sphere-120` or an OBJ file, OUTCOME a [`TestOutcome`] name with `-` for spaces; or
+//! `-- SCENE shadow origin` for the tests of the patch each shadow ray starts on (no callgrind
+//! needed): the ray count, then one line per outcome of their full solve, `OUTCOME tests skipped`.
 use std::path::Path;
 use std::process::ExitCode;
 
 use phongrt::phong::TestOutcome;
 use phongrt::scene::{load_obj, uv_sphere, LoadOptions, Mesh};
-use phongrt_cli::profile::{count_work, Counted, RayKind};
+use phongrt_cli::profile::{count_work, origin_tests, Counted, RayKind};
 
 /// The mesh of `scene`: the bench's sphere of `sphere-N` triangles, or an OBJ file's first mesh.
 fn mesh(scene: &str) -> Result<Mesh, String> {
@@ -30,8 +32,16 @@ fn main() -> ExitCode {
     let args: Vec<String> = std::env::args().skip(1).collect();
     let run = || -> Result<usize, String> {
         let [scene, kind, what] = args.as_slice() else {
-            return Err("usage: instructions SCENE primary|shadow phong|flat|OUTCOME".into());
+            return Err("usage: instructions SCENE primary|shadow phong|flat|OUTCOME|origin".into());
         };
+        let name = Path::new(scene).file_stem().map(|s| s.to_string_lossy().into_owned()).unwrap_or_default();
+        if what == "origin" {
+            let (rays, outcomes) = origin_tests(&name, &mesh(scene)?, 256).map_err(|e| e.to_string())?;
+            for o in outcomes {
+                println!("{} {} {}", o.outcome.name().replace(' ', "-"), o.tests, o.skipped);
+            }
+            return Ok(rays);
+        }
         let kind = match kind.as_str() {
             "primary" => RayKind::Primary,
             "shadow" => RayKind::Shadow,
@@ -47,7 +57,6 @@ fn main() -> ExitCode {
                     .ok_or(format!("{w:?} is not phong, flat or an outcome"))?,
             ),
         };
-        let name = Path::new(scene).file_stem().map(|s| s.to_string_lossy().into_owned()).unwrap_or_default();
         count_work(&name, &mesh(scene)?, 256, kind, what).map_err(|e| e.to_string())
     };
     match run() {

@@ -6,7 +6,10 @@
 #
 #   scripts/instructions.sh [SCENE...]     SCENE: sphere-120 (default) or an OBJ file
 #
-# Prints a Markdown table per scene. Needs valgrind.
+# Prints Markdown tables per scene: instructions per ray and per test by outcome, then the tests
+# of the patch each shadow ray starts on, by the outcome of their full solve, and how many of
+# them the origin skip settles without a solve (counted directly, not under callgrind). Needs
+# valgrind.
 set -euo pipefail
 cd "$(dirname "$0")/.."
 command -v valgrind >/dev/null || { echo "instructions.sh: valgrind is not installed" >&2; exit 1; }
@@ -50,5 +53,15 @@ for scene in "$@"; do
     echo "| rays | outcome | tests | per ray | instr/test |"
     echo "|---|---|---|---|---|"
     printf '%s' "$rows"
+    echo
+    # The origin tests: "rays" last (the example prints it after the outcomes).
+    echo "Origin tests per shadow ray (the patch each shadow ray starts on), by the outcome of its full solve:"
+    echo
+    echo "| outcome | origin tests per ray | settled without a solve | still solved per ray |"
+    echo "|---|---|---|---|"
+    out=$("$bin" "$scene" shadow origin)
+    rays=$(tail -n 1 <<<"$out")
+    head -n -1 <<<"$out" | awk -v r="$rays" '{t+=$2; s+=$3; printf "| %s | %.3f | %.3f | %.3f |\n", $1, $2/r, $3/r, ($2-$3)/r}
+        END {printf "| all | %.3f | %.3f | %.3f |\n", t/r, s/r, (t-s)/r}' | sed 's/-/ /g'
     echo
 done

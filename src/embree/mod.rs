@@ -11,7 +11,7 @@ pub use scene::{
 };
 mod panic;
 pub mod user_geometry;
-pub use user_geometry::{PrimHit, UserGeometryOptions, UserPrimitives, UserTriangles};
+pub use user_geometry::{OriginPrim, PrimHit, RayOrigin, UserGeometryOptions, UserPrimitives, UserTriangles};
 #[cfg(feature = "capi")]
 pub mod capi;
 pub mod phong_geometry;

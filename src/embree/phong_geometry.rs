@@ -9,7 +9,9 @@ use glam::Vec3;
 
 use super::device::EmbreeError;
 use super::scene::Scene;
-use super::user_geometry::{new_user_geometry, PrimHit, UserData, UserGeometryOptions, UserPrimitives};
+use super::user_geometry::{
+    new_user_geometry, OriginPrim, PrimHit, UserData, UserGeometryOptions, UserPrimitives,
+};
 use crate::phong::mesh::PhongMesh;
 use crate::sys;
 
@@ -33,6 +35,19 @@ impl UserPrimitives for PhongMesh {
     #[inline]
     fn intersect(&self, item: u32, org: Vec3, dir: Vec3, tnear: f32, tfar: f32) -> Option<PrimHit> {
         self.intersect_primitive(item, org, dir, tnear, tfar, |_| {})
+    }
+
+    #[inline]
+    fn intersect_from(
+        &self,
+        item: u32,
+        origin: Option<OriginPrim>,
+        org: Vec3,
+        dir: Vec3,
+        tnear: f32,
+        tfar: f32,
+    ) -> Option<PrimHit> {
+        self.intersect_primitive_from(item, origin, org, dir, tnear, tfar, |_| {})
     }
 }
 

@@ -743,7 +743,7 @@ pub const PACKET8: usize = 8;
 
 /// An 8-ray packet in Embree's SOA layout, from `rays` (AOS); lane `i` is traced when bit `i`
 /// of `active` is set, and its hit starts out empty.
-fn rayhit8(rays: &[Ray; PACKET8]) -> sys::RTCRayHit8 {
+pub(crate) fn rayhit8(rays: &[Ray; PACKET8]) -> sys::RTCRayHit8 {
     let mut rh = sys::RTCRayHit8::default();
     for (k, r) in rays.iter().enumerate() {
         rh.ray.org_x[k] = r.org.x;
@@ -767,12 +767,12 @@ fn rayhit8(rays: &[Ray; PACKET8]) -> sys::RTCRayHit8 {
 }
 
 /// The valid mask of an 8-ray query: -1 where bit `i` of `active` is set.
-fn valid8(active: u8) -> [i32; PACKET8] {
+pub(crate) fn valid8(active: u8) -> [i32; PACKET8] {
     std::array::from_fn(|k| if active & (1 << k) != 0 { -1 } else { 0 })
 }
 
 /// The query flags for coherent or incoherent rays.
-fn query_flags(coherent: bool) -> sys::RTCRayQueryFlags {
+pub(crate) fn query_flags(coherent: bool) -> sys::RTCRayQueryFlags {
     if coherent {
         sys::RTCRayQueryFlags::RTC_RAY_QUERY_FLAG_COHERENT
     } else {

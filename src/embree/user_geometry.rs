@@ -8,6 +8,7 @@
 //! in `catch_unwind`, and the panic is resumed in the Rust caller of the query, or reported by
 //! `commit` (see `src/embree/panic.rs`).
 
+use std::cell::Cell;
 use std::ffi::c_void;
 use std::sync::Arc;
 
@@ -15,7 +16,9 @@ use glam::Vec3;
 
 use super::device::{EmbreeError, MAX_INSTANCE_LEVEL_COUNT};
 use super::panic::{self, PanicRecord};
-use super::scene::{OwnedGeometry, Scene};
+use super::scene::{
+    query_flags, rayhit8, valid8, Hit, OccludedArgs, OwnedGeometry, QueryContext, Ray, Scene, PACKET8,
+};
 use crate::sys;
 
 /// A hit on one primitive, in the primitive's own space (instances are Embree's business).
@@ -34,6 +37,43 @@ pub struct PrimHit {
     pub prim: u32,
 }
 
+/// The point of this geometry an occlusion ray starts on, as the occluded callback hands it to
+/// [`UserPrimitives::intersect_from`]: the member hit (a [`PrimHit::prim`]) and its `(u, v)`.
+#[derive(Clone, Copy, Debug, PartialEq)]
+pub struct OriginPrim {
+    /// The member the ray starts on, as its hit reported it ([`PrimHit::prim`]).
+    pub prim: u32,
+    /// The barycentric `u` of the start point on it.
+    pub u: f32,
+    /// The barycentric `v` of the start point on it.
+    pub v: f32,
+}
+
+/// Where an occlusion ray starts, for [`Scene::occluded1_from`] and [`Scene::occluded8_rays_from`]:
+/// the hit it leaves from (geometry, primitive, `(u, v)` and instance stack, as [`Hit`] reports
+/// them). A user geometry may then leave out the primitive the ray starts on where it proves the
+/// ray cannot meet it again ([`UserPrimitives::intersect_from`]); the answer is the same.
+#[derive(Clone, Copy, Debug, PartialEq)]
+pub struct RayOrigin {
+    /// The geometry's ID in the scene that holds it.
+    pub geom_id: u32,
+    /// The primitive (for a user geometry, the member hit: [`PrimHit::prim`]).
+    pub prim: u32,
+    /// The barycentric `u` of the start point.
+    pub u: f32,
+    /// The barycentric `v` of the start point.
+    pub v: f32,
+    /// The instance IDs from the outermost level, `u32::MAX` where unused (as [`Hit::inst_id`]).
+    pub inst_id: [u32; MAX_INSTANCE_LEVEL_COUNT],
+}
+
+impl RayOrigin {
+    /// The origin of a ray leaving the point `hit` found.
+    pub fn of_hit(hit: &Hit) -> Self {
+        RayOrigin { geom_id: hit.geom_id, prim: hit.prim_id, u: hit.u, v: hit.v, inst_id: hit.inst_id }
+    }
+}
+
 /// A set of primitives that Embree can bound and intersect through callbacks.
 pub trait UserPrimitives: Send + Sync + 'static {
     /// Number of primitives (Embree's primitives are `0..count`; hits report [`PrimHit::prim`]).
@@ -42,6 +82,24 @@ pub trait UserPrimitives: Send + Sync + 'static {
     fn bounds(&self, prim: u32) -> Option<(Vec3, Vec3)>;
     /// The nearest hit of `org + t dir` with `t` in the open interval `(tnear, tfar)`.
     fn intersect(&self, prim: u32, org: Vec3, dir: Vec3, tnear: f32, tfar: f32) -> Option<PrimHit>;
+    /// [`UserPrimitives::intersect`] for an occlusion ray that starts on this geometry at
+    /// `origin` ([`Scene::occluded1_from`]): an implementation may leave out the member `origin`
+    /// names where it proves the ray cannot meet it, and must otherwise answer as `intersect`.
+    /// The default ignores the origin.
+    #[inline(always)]
+    #[allow(clippy::too_many_arguments)]
+    fn intersect_from(
+        &self,
+        prim: u32,
+        origin: Option<OriginPrim>,
+        org: Vec3,
+        dir: Vec3,
+        tnear: f32,
+        tfar: f32,
+    ) -> Option<PrimHit> {
+        let _ = origin;
+        self.intersect(prim, org, dir, tnear, tfar)
+    }
 }
 
 /// Shared primitives: the scene holds one reference, the caller keeps others (for shading
@@ -58,6 +116,19 @@ impl<T: UserPrimitives> UserPrimitives for Arc<T> {
     #[inline]
     fn intersect(&self, prim: u32, org: Vec3, dir: Vec3, tnear: f32, tfar: f32) -> Option<PrimHit> {
         (**self).intersect(prim, org, dir, tnear, tfar)
+    }
+
+    #[inline]
+    fn intersect_from(
+        &self,
+        prim: u32,
+        origin: Option<OriginPrim>,
+        org: Vec3,
+        dir: Vec3,
+        tnear: f32,
+        tfar: f32,
+    ) -> Option<PrimHit> {
+        (**self).intersect_from(prim, origin, org, dir, tnear, tfar)
     }
 }
 
@@ -88,6 +159,7 @@ const RAY_ORG: usize = 0;
 const RAY_TNEAR: usize = 3;
 const RAY_DIR: usize = 4;
 const RAY_TFAR: usize = 8;
+const RAY_ID: usize = 10;
 const RAY_FIELDS: usize = 12;
 const HIT_NG: usize = 0;
 const HIT_U: usize = 3;
@@ -248,7 +320,8 @@ unsafe extern "C" fn intersect_callback<T: UserPrimitives>(args: *const sys::RTC
 /// which returns whether the filters accepted it. A primitive can be crossed several times:
 /// after a rejected candidate, look beyond it (at most [`MAX_CANDIDATES`]: 4 roots for each of
 /// a cluster's 8 patches, the resultant of a line and a quadratic patch being a quartic). A
-/// rejection restores the lane's `tfar`, so its value read here holds.
+/// rejection restores the lane's `tfar`, so its value read here holds. `origin(lane)` is where
+/// the lane's ray starts on this geometry, if known (occlusion rays of [`Scene::occluded1_from`]).
 ///
 /// # Safety
 /// `ray` must be an RTCRayN (or the ray part of an RTCRayHitN) of width `valid.len()`.
@@ -258,6 +331,7 @@ unsafe fn for_each_candidate<T: UserPrimitives>(
     prim: u32,
     valid: &[i32],
     ray: Soa,
+    origin: impl Fn(usize) -> Option<OriginPrim>,
     mut offer: impl FnMut(usize, &LaneRay, &PrimHit) -> bool,
 ) {
     for (lane, &v) in valid.iter().enumerate() {
@@ -266,9 +340,10 @@ unsafe fn for_each_candidate<T: UserPrimitives>(
         }
         // SAFETY: lane < n and the layout is RTCRayN of width n (this function's contract).
         let r = unsafe { read_ray(ray, lane) };
+        let from = origin(lane);
         let mut tnear = r.tnear;
         for _ in 0..MAX_CANDIDATES {
-            let Some(h) = data.intersect(prim, r.org, r.dir, tnear, r.tfar) else { break };
+            let Some(h) = data.intersect_from(prim, from, r.org, r.dir, tnear, r.tfar) else { break };
             if offer(lane, &r, &h) {
                 break;
             }
@@ -325,7 +400,7 @@ unsafe fn intersect_lanes<T: UserPrimitives>(
         }
     };
     // SAFETY: `ray` is the ray part of the packet Embree passed, of width n.
-    unsafe { for_each_candidate(data, a.primID, valid, ray, offer) }
+    unsafe { for_each_candidate(data, a.primID, valid, ray, |_| None, offer) }
 }
 
 /// A stack RTCHitN of up to 16 lanes with the alignment Embree's packet types use.
@@ -365,6 +440,12 @@ unsafe fn occluded_lanes<T: UserPrimitives>(
     // SAFETY: `valid` points to N ints (RTCOccludedFunctionNArguments contract).
     let valid = unsafe { std::slice::from_raw_parts(a.valid, n) };
     let ray = Soa { base: a.ray as *mut u32, n };
+    let origins = origin_context(a.context);
+    let origin = |lane: usize| {
+        // SAFETY: lane < n in an RTCRayN of width n; `origins` and `a.context` are live for the
+        // query (see `origin_context`).
+        unsafe { origin_of(origins?, a.context, a.geomID, ray.u(RAY_ID, lane)) }
+    };
     // The filter's hit buffer, zeroed only once a candidate needs it (most calls find none).
     let mut buf: Option<HitBuf> = None;
     let offer = |lane: usize, r: &LaneRay, h: &PrimHit| {
@@ -397,7 +478,143 @@ unsafe fn occluded_lanes<T: UserPrimitives>(
         }
     };
     // SAFETY: `ray` is the ray part of the packet Embree passed, of width n.
-    unsafe { for_each_candidate(data, a.primID, valid, ray, offer) }
+    unsafe { for_each_candidate(data, a.primID, valid, ray, origin, offer) }
+}
+
+// ---------------------------------------------------------------------------------------------
+// Origin-aware occlusion: the query context extended with where each ray starts (Embree 4 passes
+// the caller's `RTCRayQueryContext` pointer to the callbacks as is, so data may follow it: "the
+// context can be extended", rtcInitRayQueryContext docs). A ray names its entry by its `id`
+// (entry k + 1; 0: none), which Embree carries through traversal, instancing and packet splits
+// unchanged. A callback reads past the raw context only when the context is the one this thread
+// registered for the query it runs under.
+
+/// A query context followed by the origins of the query's `N` rays.
+#[repr(C)]
+struct OriginContext<const N: usize> {
+    /// What Embree sees (first, so a pointer to it is a pointer to the whole).
+    base: QueryContext,
+    /// Entry `k` for the rays with `id == k + 1`.
+    origins: [RayOrigin; N],
+}
+
+/// The registered query context (as Embree sees it) and its origins.
+type Registration = (*const sys::RTCRayQueryContext, *const [RayOrigin]);
+
+thread_local! {
+    /// The [`OriginContext`] of the origin-aware query running on this thread (null: none).
+    static ORIGIN_CONTEXT: Cell<Registration> =
+        const { Cell::new((std::ptr::null(), std::ptr::slice_from_raw_parts(std::ptr::null(), 0))) };
+}
+
+/// Restores the thread's registered [`OriginContext`] when a query ends, by return or unwind.
+struct Registered(Registration);
+
+impl Drop for Registered {
+    fn drop(&mut self) {
+        ORIGIN_CONTEXT.with(|c| c.set(self.0));
+    }
+}
+
+impl<const N: usize> OriginContext<N> {
+    fn new() -> Self {
+        OriginContext { base: QueryContext::new(), origins: [NO_ORIGIN; N] }
+    }
+
+    /// Run the query `f(args)` with arguments whose context is `self`, registered as this
+    /// thread's origin context while it runs.
+    fn query<R>(&mut self, coherent: bool, f: impl FnOnce(&mut OccludedArgs<'_>) -> R) -> R {
+        let p: *mut Self = self;
+        // SAFETY: `p` points to `self`, borrowed exclusively for this call; the base and the
+        // origins are disjoint fields, so the context borrow Embree writes through leaves the
+        // origins to be read through `p` (origin_of).
+        let (base, origins) =
+            unsafe { (&mut (*p).base, std::ptr::addr_of!((*p).origins) as *const [RayOrigin]) };
+        let raw: *const sys::RTCRayQueryContext = base.as_raw();
+        let mut args = OccludedArgs::new().flags(query_flags(coherent)).context(base);
+        let _outer = Registered(ORIGIN_CONTEXT.with(|c| c.replace((raw, origins))));
+        f(&mut args)
+    }
+}
+
+/// The registered origins, if `context` is the registered context.
+#[inline(always)]
+fn origin_context(context: *const sys::RTCRayQueryContext) -> Option<*const [RayOrigin]> {
+    let (ours, origins) = ORIGIN_CONTEXT.with(Cell::get);
+    (!ours.is_null() && ours == context).then_some(origins)
+}
+
+/// The origin of the ray with `id` when it starts on geometry `geom` at the instance level the
+/// query is at now (the context's instance stack).
+///
+/// # Safety
+/// `origins` must be the registered origins of the running query and `context` Embree's
+/// pointer to its context.
+#[inline(always)]
+unsafe fn origin_of(
+    origins: *const [RayOrigin],
+    context: *const sys::RTCRayQueryContext,
+    geom: u32,
+    id: u32,
+) -> Option<OriginPrim> {
+    let k = (id as usize).checked_sub(1).filter(|&k| k < origins.len())?;
+    // SAFETY: the origins are registered by `OriginContext::query` for the query this callback
+    // runs under and live (on its caller's stack) until it returns, k is in bounds; Embree
+    // writes only the instance stack of the base context, read through its own pointer.
+    let (o, stack) = unsafe { ((origins as *const RayOrigin).add(k).read(), (*context).instID) };
+    (o.geom_id == geom && o.inst_id == stack).then_some(OriginPrim { prim: o.prim, u: o.u, v: o.v })
+}
+
+/// A ray origin that matches no geometry (a ray with `id` 0 has none anyway).
+const NO_ORIGIN: RayOrigin = RayOrigin {
+    geom_id: u32::MAX,
+    prim: u32::MAX,
+    u: 0.0,
+    v: 0.0,
+    inst_id: [u32::MAX; MAX_INSTANCE_LEVEL_COUNT],
+};
+
+impl Scene {
+    /// [`Scene::occluded1`] for a ray that starts at `origin` (the hit it leaves from): the same
+    /// answer, with the primitive it starts on left out where its geometry proves the ray cannot
+    /// meet it again (Phong patches: [`crate::phong::convexity::leaves_patch`]). `None` is
+    /// `occluded1`.
+    pub fn occluded1_from(&self, ray: Ray, origin: Option<RayOrigin>) -> bool {
+        let mut ctx = OriginContext::<1>::new();
+        let mut r = ray.to_sys();
+        if let Some(o) = origin {
+            ctx.origins[0] = o;
+            r.id = 1;
+        }
+        ctx.query(false, |args| self.occluded1_raw(&mut r, Some(args)).is_ok() && r.tfar == f32::NEG_INFINITY)
+    }
+
+    /// [`Scene::occluded8_rays`] for rays that start at `origins[k]` (lane `k`), as
+    /// [`Scene::occluded1_from`] for one ray: the same answers.
+    pub fn occluded8_rays_from(
+        &self,
+        rays: &[Ray; PACKET8],
+        origins: &[Option<RayOrigin>; PACKET8],
+        active: u8,
+        coherent: bool,
+    ) -> u8 {
+        if active == 0 {
+            return 0;
+        }
+        let mut ctx = OriginContext::<PACKET8>::new();
+        let mut ray = rayhit8(rays).ray;
+        for (k, o) in origins.iter().enumerate() {
+            if let Some(o) = o {
+                ctx.origins[k] = *o;
+                ray.id[k] = k as u32 + 1;
+            }
+        }
+        if !ctx.query(coherent, |args| self.occluded8(&valid8(active), &mut ray, Some(args)).is_ok()) {
+            return 0;
+        }
+        (0..PACKET8)
+            .fold(0, |m, k| m | (((active & (1 << k) != 0 && ray.tfar[k] == f32::NEG_INFINITY) as u8) << k))
+    }
 }
 
 /// The options of a user geometry: the same as every attach's ([`GeometryOptions`](super::scene::GeometryOptions)).

@@ -5,8 +5,9 @@
 
 use glam::{DVec3, Vec3};
 
-use crate::embree::user_geometry::PrimHit;
+use crate::embree::user_geometry::{OriginPrim, PrimHit};
 use crate::phong::cluster::{group_by_position, hull_entries, Cluster, ClusterHull, CLUSTER_SIZE};
+use crate::phong::convexity::{audit, convexity, leaves_patch, Convexity};
 use crate::phong::{
     intersect_in_hull_traced, intersect_traced, Method, Patch, PatchHit, ShadingNormal, TestOutcome, V3,
 };
@@ -58,6 +59,8 @@ pub enum PhongMeshError {
 #[derive(Clone, Debug)]
 pub struct PhongMesh {
     patches: Vec<Patch<f32>>,
+    /// Each patch's [`Convexity`], for leaving out the patch an occlusion ray starts on.
+    convexity: Vec<Convexity>,
     /// The clusters of non-degenerate patches that are Embree's user primitives (empty: each
     /// patch is one).
     clusters: Vec<Cluster>,
@@ -233,7 +236,8 @@ fn build_patches(
     };
     let degenerate = patches.iter().filter(|p| p.degenerate()).count();
     let straight = straight.map_or(0, |s| s.iter().flatten().filter(|&&b| b).count());
-    PhongMesh { patches, clusters, degenerate, straight, method: Method::Certified }
+    let convexity = patches.par_iter().map(convexity).collect();
+    PhongMesh { patches, convexity, clusters, degenerate, straight, method: Method::Certified }
 }
 
 /// Where the ray enters each member's prism of a cluster (see
@@ -317,6 +321,11 @@ impl PhongMesh {
     /// The patches, one per triangle (primID order).
     pub fn patches(&self) -> &[Patch<f32>] {
         &self.patches
+    }
+
+    /// The sides patch `prim` is convex towards (`None` past the end).
+    pub fn convexity(&self, prim: u32) -> Option<Convexity> {
+        self.convexity.get(prim as usize).copied()
     }
 
     /// Conservative world-space bounds of patch `prim` (`None` past the end).
@@ -416,7 +425,7 @@ impl PhongMesh {
 
     /// Bytes held by this mesh.
     pub fn memory_bytes(&self) -> usize {
-        self.patches.len() * std::mem::size_of::<Patch<f32>>()
+        self.patches.len() * (std::mem::size_of::<Patch<f32>>() + std::mem::size_of::<Convexity>())
             + self.clusters.len() * std::mem::size_of::<Cluster>()
     }
 }
@@ -452,11 +461,33 @@ impl PhongMesh {
         dir: Vec3,
         tnear: f32,
         tfar: f32,
+        on_test: impl FnMut(PatchTest),
+    ) -> Option<PrimHit> {
+        self.intersect_primitive_from(item, None, org, dir, tnear, tfar, on_test)
+    }
+
+    /// [`PhongMesh::intersect_primitive`] for a ray that starts at `origin` (a point of one of
+    /// this mesh's patches) when given: that patch is left out, without a solve, where
+    /// [`leaves_patch`] proves the ray cannot meet it again (`on_test` does not see it).
+    #[inline(always)]
+    #[allow(clippy::too_many_arguments)]
+    pub fn intersect_primitive_from(
+        &self,
+        item: u32,
+        origin: Option<OriginPrim>,
+        org: Vec3,
+        dir: Vec3,
+        tnear: f32,
+        tfar: f32,
         mut on_test: impl FnMut(PatchTest),
     ) -> Option<PrimHit> {
+        let (o, d) = (V3::from(org), V3::from(dir));
         if self.clusters.is_empty() {
             let p = self.patches.get(item as usize)?;
-            let (h, outcome) = intersect_traced(p, V3::from(org), V3::from(dir), tnear, tfar, self.method);
+            if self.leaves_origin(item, origin, o, d, tnear, tfar) {
+                return None;
+            }
+            let (h, outcome) = intersect_traced(p, o, d, tnear, tfar, self.method);
             on_test(PatchTest { prim: item, tnear, tmax: tfar, outcome, hull_tested: true });
             return h.map(|h| self.prim_hit(p, item, h));
         }
@@ -477,23 +508,53 @@ impl PhongMesh {
                 n += 1;
             }
         }
-        // Solve them until the next entry lies beyond the nearest hit.
-        let mut best: Option<PrimHit> = None;
+        // Solve them until the next entry lies beyond the nearest hit; the normal only for it.
+        let mut best: Option<(u32, PatchHit<f32>)> = None;
         let mut tmax = tfar;
         for &(entry, prim) in &order[..n] {
             if !(entry < tmax) {
                 break;
             }
             let Some(p) = self.patches.get(prim as usize) else { continue };
-            let (hit, outcome) =
-                intersect_in_hull_traced(p, V3::from(org), V3::from(dir), tnear, tmax, self.method);
+            if self.leaves_origin(prim, origin, o, d, tnear, tmax) {
+                continue;
+            }
+            let (hit, outcome) = intersect_in_hull_traced(p, o, d, tnear, tmax, self.method);
             on_test(PatchTest { prim, tnear, tmax, outcome, hull_tested: false });
             if let Some(h) = hit {
                 tmax = h.t;
-                best = Some(self.prim_hit(p, prim, h));
+                best = Some((prim, h));
             }
         }
-        best
+        let (prim, h) = best?;
+        Some(self.prim_hit(self.patches.get(prim as usize)?, prim, h))
+    }
+
+    /// Whether patch `prim` is the one the ray starts on (`origin`) and [`leaves_patch`] proves
+    /// the ray cannot meet it again. Under the [`audit`], such a patch is solved anyway (on
+    /// `(tnear, tmax)`, as the solve left out would have been) and counted.
+    #[inline(always)]
+    fn leaves_origin(
+        &self,
+        prim: u32,
+        origin: Option<OriginPrim>,
+        org: V3<f32>,
+        dir: V3<f32>,
+        tnear: f32,
+        tmax: f32,
+    ) -> bool {
+        let Some(origin) = origin.filter(|o| o.prim == prim) else { return false };
+        let (Some(p), Some(&conv)) = (self.patches.get(prim as usize), self.convexity.get(prim as usize))
+        else {
+            return false;
+        };
+        if !leaves_patch(p, conv, origin.u, origin.v, org, dir, tnear) {
+            return false;
+        }
+        if audit::on() {
+            audit::record(prim, intersect_traced(p, org, dir, tnear, tmax, self.method).0.map(|h| h.t));
+        }
+        true
     }
 
     /// The hit Embree is given for `h` on patch `p` (triangle `prim`).

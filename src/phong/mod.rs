@@ -24,6 +24,7 @@ pub const DEFAULT_ALPHA: f32 = 0.75;
 pub mod accuracy;
 pub mod basis;
 pub mod cluster;
+pub mod convexity;
 pub mod intersect;
 pub mod mesh;
 pub mod patch;

@@ -7,8 +7,8 @@ use glam::Vec3;
 use rayon::prelude::*;
 
 use phongrt::embree::{
-    patch_prim_hit, Device, EmbreeError, GeometryOptions, PhongMesh, PhongMeshError, PrimHit, Ray, Scene,
-    UserGeometryOptions, UserPrimitives, UserTriangles, PACKET8,
+    patch_prim_hit, Device, EmbreeError, GeometryOptions, PhongMesh, PhongMeshError, PrimHit, Ray, RayOrigin,
+    Scene, UserGeometryOptions, UserPrimitives, UserTriangles, PACKET8,
 };
 use phongrt::phong::{control_points, intersect, Method, Patch, V3};
 use phongrt::scene::Mesh;
@@ -347,6 +347,7 @@ pub fn shadow_ray(ray: &Ray, h: &phongrt::embree::Hit, light: Vec3) -> Option<(R
         terminator: phongrt_render::Terminator::Plain,
         lift: Vec3::ZERO,
         bumps: None,
+        origin: None,
     };
     Some((Ray::new(sp.offset_origin(light), light), cos))
 }
@@ -368,7 +369,7 @@ fn shaded(scene: &Scene, frame: &phongrt_render::CameraFrame, width: u32, height
                 let ray = Ray::new(frame.eye, frame.direction(x as f32 + ox, y as f32 + oy, width, height));
                 let Some(h) = scene.intersect1(ray) else { continue };
                 let Some((shadow, cos)) = shadow_ray(&ray, &h, light) else { continue };
-                if !scene.occluded1(shadow) {
+                if !scene.occluded1_from(shadow, Some(RayOrigin::of_hit(&h))) {
                     sum += cos as f64;
                 }
             }
@@ -428,15 +429,16 @@ fn shaded_packets(
                 });
                 let hits = scene.intersect8_rays(&rays, active, true);
                 let mut shadow = [Ray::new(Vec3::ZERO, light); PACKET8];
+                let mut origins = [None; PACKET8];
                 let mut cos = [0.0f32; PACKET8];
                 let mut lit = 0u8;
                 for (k, (h, ray)) in hits.iter().zip(&rays).enumerate() {
                     let Some(h) = h else { continue };
                     let Some((r, c)) = shadow_ray(ray, h, light) else { continue };
-                    (shadow[k], cos[k]) = (r, c);
+                    (shadow[k], origins[k], cos[k]) = (r, Some(RayOrigin::of_hit(h)), c);
                     lit |= 1 << k;
                 }
-                let free = lit & !scene.occluded8_rays(&shadow, lit, true);
+                let free = lit & !scene.occluded8_rays_from(&shadow, &origins, lit, true);
                 for (_, c) in cos.iter().enumerate().filter(|(k, _)| free & (1 << k) != 0) {
                     sum += *c as f64;
                 }

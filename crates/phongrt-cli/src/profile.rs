@@ -17,8 +17,8 @@ use glam::Vec3;
 
 use crate::bench::{bench_light, primary_rays, shadow_ray, BenchError};
 use phongrt::embree::{
-    Device, GeometryOptions, PatchTest, PhongMesh, PrimHit, Ray, Scene, UserGeometryOptions, UserPrimitives,
-    UserTriangles,
+    Device, GeometryOptions, OriginPrim, PatchTest, PhongMesh, PrimHit, Ray, RayOrigin, Scene,
+    UserGeometryOptions, UserPrimitives, UserTriangles,
 };
 use phongrt::phong::{intersect_in_hull_traced, intersect_traced, TestOutcome, V3};
 use phongrt::scene::Mesh;
@@ -27,6 +27,8 @@ use phongrt::scene::Mesh;
 #[derive(Clone, Copy, Debug)]
 struct Call {
     prim: u32,
+    /// Where the ray starts on the geometry (shadow rays).
+    origin: Option<OriginPrim>,
     org: Vec3,
     dir: Vec3,
     tnear: f32,
@@ -49,10 +51,22 @@ impl<T: UserPrimitives> UserPrimitives for Recording<T> {
     }
 
     fn intersect(&self, prim: u32, org: Vec3, dir: Vec3, tnear: f32, tfar: f32) -> Option<PrimHit> {
+        self.intersect_from(prim, None, org, dir, tnear, tfar)
+    }
+
+    fn intersect_from(
+        &self,
+        prim: u32,
+        origin: Option<OriginPrim>,
+        org: Vec3,
+        dir: Vec3,
+        tnear: f32,
+        tfar: f32,
+    ) -> Option<PrimHit> {
         if let Ok(mut calls) = self.calls.lock() {
-            calls.push(Call { prim, org, dir, tnear, tfar });
+            calls.push(Call { prim, origin, org, dir, tnear, tfar });
         }
-        self.inner.intersect(prim, org, dir, tnear, tfar)
+        self.inner.intersect_from(prim, origin, org, dir, tnear, tfar)
     }
 }
 
@@ -61,7 +75,8 @@ impl<T: UserPrimitives> UserPrimitives for Recording<T> {
 pub enum RayKind {
     /// The bench's primary rays, one per pixel centre (`intersect1`).
     Primary,
-    /// The shadow rays of the bench's shaded render from those hits (`occluded1`).
+    /// The shadow rays of the bench's shaded render from those hits (`occluded1_from`, with
+    /// the hit each starts on).
     Shadow,
 }
 
@@ -90,22 +105,47 @@ fn recording_scene<T: UserPrimitives>(
     Ok((scene, calls))
 }
 
+/// A traced ray, with the hit it starts on (shadow rays).
+type Traced = (Ray, Option<RayOrigin>);
+
 /// Trace `rays` of `kind` through `scene` on this thread.
-fn trace(scene: &Scene, rays: &[Ray], kind: RayKind) {
-    for r in rays {
+fn trace(scene: &Scene, rays: &[Traced], kind: RayKind) {
+    for (r, origin) in rays {
         match kind {
             RayKind::Primary => {
                 std::hint::black_box(scene.intersect1(*r));
             }
             RayKind::Shadow => {
-                std::hint::black_box(scene.occluded1(*r));
+                std::hint::black_box(scene.occluded1_from(*r, *origin));
             }
         }
     }
 }
 
+/// The bench's primary rays of `m` (`size`²) traced on `scenes`, or the shadow rays of their hits.
+fn rays_of(
+    name: &str,
+    m: &Mesh,
+    size: u32,
+    scenes: &Scenes,
+    kind: RayKind,
+) -> Result<Vec<Traced>, BenchError> {
+    let (frame, primary) = primary_rays(name, m, size, size)?;
+    let light = bench_light(&frame);
+    Ok(match kind {
+        RayKind::Primary => primary.into_iter().map(|r| (r, None)).collect(),
+        RayKind::Shadow => primary
+            .iter()
+            .filter_map(|r| {
+                let h = scenes.direct.intersect1(*r)?;
+                shadow_ray(r, &h, light).map(|(s, _)| (s, Some(RayOrigin::of_hit(&h))))
+            })
+            .collect(),
+    })
+}
+
 /// The calls `scene` logs into `log` while `rays` are traced.
-fn calls_of(scene: &Scene, log: &Mutex<Vec<Call>>, rays: &[Ray], kind: RayKind) -> Vec<Call> {
+fn calls_of(scene: &Scene, log: &Mutex<Vec<Call>>, rays: &[Traced], kind: RayKind) -> Vec<Call> {
     let take = || std::mem::take(&mut *log.lock().unwrap_or_else(|e| e.into_inner()));
     take();
     trace(scene, rays, kind);
@@ -237,10 +277,14 @@ pub fn profile_scene(
     let scenes = Scenes::new(&device, m, cluster_size)?;
     // Compute the shadow rays of the primary hits.
     let light = bench_light(&frame);
-    let shadow: Vec<Ray> = primary
+    let shadow: Vec<Traced> = primary
         .iter()
-        .filter_map(|r| shadow_ray(r, &scenes.direct.intersect1(*r)?, light).map(|(s, _)| s))
+        .filter_map(|r| {
+            let h = scenes.direct.intersect1(*r)?;
+            shadow_ray(r, &h, light).map(|(s, _)| (s, Some(RayOrigin::of_hit(&h))))
+        })
         .collect();
+    let primary: Vec<Traced> = primary.into_iter().map(|r| (r, None)).collect();
     Ok(vec![
         profile_rays(name, &scenes, &primary, RayKind::Primary, cluster_size),
         profile_rays(name, &scenes, &shadow, RayKind::Shadow, cluster_size),
@@ -248,7 +292,7 @@ pub fn profile_scene(
 }
 
 /// The profile of `rays` of `kind` on `scenes`.
-fn profile_rays(name: &str, scenes: &Scenes, rays: &[Ray], kind: RayKind, cluster_size: usize) -> Profile {
+fn profile_rays(name: &str, scenes: &Scenes, rays: &[Traced], kind: RayKind, cluster_size: usize) -> Profile {
     let mesh = &scenes.mesh;
     let calls = calls_of(&scenes.recording.0, &scenes.recording.1, rays, kind);
     let floor_calls = calls_of(&scenes.floor.0, &scenes.floor.1, rays, kind).len();
@@ -257,7 +301,7 @@ fn profile_rays(name: &str, scenes: &Scenes, rays: &[Ray], kind: RayKind, cluste
     let mut members = 0;
     for c in &calls {
         members += mesh.clusters().get(c.prim as usize).map_or(1, |k| k.members().len());
-        mesh.intersect_primitive(c.prim, c.org, c.dir, c.tnear, c.tfar, |test| {
+        mesh.intersect_primitive_from(c.prim, c.origin, c.org, c.dir, c.tnear, c.tfar, |test| {
             let k = TestOutcome::ALL.iter().position(|&o| o == test.outcome).unwrap_or(0);
             by_outcome[k].push(Solve { test, org: c.org, dir: c.dir });
         });
@@ -284,7 +328,7 @@ fn profile_rays(name: &str, scenes: &Scenes, rays: &[Ray], kind: RayKind, cluste
         })
         .collect();
     let call = |c: &Call| {
-        std::hint::black_box(mesh.intersect(c.prim, c.org, c.dir, c.tnear, c.tfar));
+        std::hint::black_box(mesh.intersect_from(c.prim, c.origin, c.org, c.dir, c.tnear, c.tfar));
     };
     // Time the rays through Embree: each scene as the best of a few runs of all the rays.
     let through = |scene: &Scene| replay_ns(&[()], |_| trace(scene, rays, kind)) / rays.len().max(1) as f64;
@@ -388,25 +432,25 @@ pub fn count_work(
     what: Counted,
 ) -> Result<usize, BenchError> {
     let device = Device::new()?;
-    let (frame, primary) = primary_rays(name, m, size, size)?;
     let scenes = Scenes::new(&device, m, 1)?;
-    let light = bench_light(&frame);
-    let rays: Vec<Ray> = match kind {
-        RayKind::Primary => primary,
-        RayKind::Shadow => primary
-            .iter()
-            .filter_map(|r| shadow_ray(r, &scenes.direct.intersect1(*r)?, light).map(|(s, _)| s))
-            .collect(),
-    };
+    let rays = rays_of(name, m, size, &scenes, kind)?;
     let solves: Vec<Solve> = match what {
         Counted::Outcome(outcome) => {
             let mut solves = Vec::new();
             for c in calls_of(&scenes.recording.0, &scenes.recording.1, &rays, kind) {
-                scenes.mesh.intersect_primitive(c.prim, c.org, c.dir, c.tnear, c.tfar, |test| {
-                    if test.outcome == outcome {
-                        solves.push(Solve { test, org: c.org, dir: c.dir });
-                    }
-                });
+                scenes.mesh.intersect_primitive_from(
+                    c.prim,
+                    c.origin,
+                    c.org,
+                    c.dir,
+                    c.tnear,
+                    c.tfar,
+                    |test| {
+                        if test.outcome == outcome {
+                            solves.push(Solve { test, org: c.org, dir: c.dir });
+                        }
+                    },
+                );
             }
             solves
         }
@@ -423,7 +467,7 @@ pub fn count_work(
 fn counted_work(
     scene: &Scene,
     mesh: &PhongMesh,
-    rays: &[Ray],
+    rays: &[Traced],
     kind: RayKind,
     solves: &[Solve],
     replay: bool,
@@ -442,4 +486,42 @@ fn counted_work(
             std::hint::black_box(intersect_in_hull_traced(p, o, d, t0, t1, method));
         }
     }
+}
+
+/// The tests of the patch a shadow ray starts on, by the outcome its full solve has: how many
+/// there are, and how many of them the origin skip leaves out.
+#[derive(Clone, Copy, Debug)]
+pub struct OriginTests {
+    /// The outcome of the full solve.
+    pub outcome: TestOutcome,
+    /// Calls on the patch a ray starts on with this outcome.
+    pub tests: usize,
+    /// Of those, the solves left out (proved not to hit).
+    pub skipped: usize,
+}
+
+/// The shadow rays of `m`'s shaded render (the bench's, `size`², one patch per primitive) and,
+/// by outcome, the calls Embree makes on the patch each starts on: returns the ray count and the
+/// outcomes taken.
+pub fn origin_tests(name: &str, m: &Mesh, size: u32) -> Result<(usize, Vec<OriginTests>), BenchError> {
+    let device = Device::new()?;
+    let scenes = Scenes::new(&device, m, 1)?;
+    let rays = rays_of(name, m, size, &scenes, RayKind::Shadow)?;
+    let mut out: Vec<OriginTests> =
+        TestOutcome::ALL.iter().map(|&outcome| OriginTests { outcome, tests: 0, skipped: 0 }).collect();
+    let mesh = &scenes.mesh;
+    for c in calls_of(&scenes.recording.0, &scenes.recording.1, &rays, RayKind::Shadow) {
+        if c.origin.is_none_or(|o| o.prim != c.prim) {
+            continue;
+        }
+        let mut full = None;
+        mesh.intersect_primitive(c.prim, c.org, c.dir, c.tnear, c.tfar, |t| full = Some(t.outcome));
+        let mut solved = false;
+        mesh.intersect_primitive_from(c.prim, c.origin, c.org, c.dir, c.tnear, c.tfar, |_| solved = true);
+        let Some(k) = full.and_then(|o| TestOutcome::ALL.iter().position(|&x| x == o)) else { continue };
+        out[k].tests += 1;
+        out[k].skipped += !solved as usize;
+    }
+    out.retain(|o| o.tests > 0);
+    Ok((rays.len(), out))
 }

@@ -8,7 +8,9 @@ use glam::{Vec2, Vec3};
 
 use super::texture::Texture;
 use super::{RayCounts, RenderError};
-use phongrt::embree::{Device, GeometryOptions, Hit, PhongMesh, Ray, Scene, UserGeometryOptions, PACKET8};
+use phongrt::embree::{
+    Device, GeometryOptions, Hit, PhongMesh, Ray, RayOrigin, Scene, UserGeometryOptions, PACKET8,
+};
 use phongrt::phong::ShadingNormal;
 use phongrt::phong::{Real, V3};
 use phongrt::rng::SplitMix;
@@ -685,6 +687,7 @@ impl World {
         if !self.any_transmissive() {
             for (i, light) in self.lights.iter().enumerate().take(PACKET_LIGHTS) {
                 let mut shadow_rays = [Ray::new(Vec3::ZERO, Vec3::Z); PACKET8];
+                let mut origins = [None; PACKET8];
                 let mut active = 0u8;
                 for (k, a) in arrivals.iter().enumerate() {
                     let Some(Arrival::Surface { obj, sp, .. }) = a else { continue };
@@ -696,9 +699,10 @@ impl World {
                     let o = self.shadow_origin(sp, dir, counts);
                     counts.shadow += 1;
                     shadow_rays[k] = Ray::new(o, dir).with_range(0.0, tfar);
+                    origins[k] = sp.origin;
                     active |= 1 << k;
                 }
-                let blocked = self.scene.occluded8_rays(&shadow_rays, active, true);
+                let blocked = self.scene.occluded8_rays_from(&shadow_rays, &origins, active, true);
                 for (k, t) in traced.iter_mut().enumerate().filter(|(k, _)| active & (1 << k) != 0) {
                     let passes = blocked & (1 << k) != 0
                         && matches!(&arrivals[k], Some(Arrival::Surface { sp, .. })
@@ -970,7 +974,7 @@ impl World {
         }
         let lift = w * sp.lift;
         counts.terminator += 1;
-        if self.scene.occluded1(Ray::new(sp.offset_origin(lift), lift).with_range(0.0, 1.0)) {
+        if self.scene.occluded1_from(Ray::new(sp.offset_origin(lift), lift).with_range(0.0, 1.0), sp.origin) {
             return sp.offset_origin(dir);
         }
         let p = sp.p + lift;
@@ -990,7 +994,7 @@ impl World {
         tfar: f32,
         counts: &mut RayCounts,
     ) -> bool {
-        !self.scene.occluded1(Ray::new(o, dir).with_range(0.0, tfar))
+        !self.scene.occluded1_from(Ray::new(o, dir).with_range(0.0, tfar), sp.origin)
             || self.passes_own_bumps(sp, o, dir, tfar, counts)
     }
 
@@ -1046,7 +1050,7 @@ impl World {
             }
             counts.environment += 1;
             let o = sp.offset_origin(d);
-            if !self.scene.occluded1(Ray::new(o, d)) {
+            if !self.scene.occluded1_from(Ray::new(o, d), sp.origin) {
                 sum += env.radiance(d);
             }
         }
@@ -1071,7 +1075,7 @@ impl World {
             let d = r * phi.cos() * t + r * phi.sin() * b + (1.0 - a).max(0.0).sqrt() * sp.n;
             counts.ambient_occlusion += 1;
             let o = sp.offset_origin(d);
-            if !self.scene.occluded1(Ray::new(o, d).with_range(0.0, ao.distance)) {
+            if !self.scene.occluded1_from(Ray::new(o, d).with_range(0.0, ao.distance), sp.origin) {
                 free += 1;
             }
         }
@@ -1100,6 +1104,9 @@ pub struct SurfacePoint {
     /// Within what a shadow ray may pass the C0 bumps of its own mesh ([`Terminator::Lift`]
     /// only; `None` elsewhere).
     pub bumps: Option<BumpBound>,
+    /// The hit the point lies on, given to the occlusion rays that leave it, so that the patch
+    /// they start on is left out where it provably cannot block them (`None`: not known).
+    pub origin: Option<RayOrigin>,
 }
 
 /// Where a shadow ray from a Phong surface may pass the C0 bumps of its own mesh (see
@@ -1307,7 +1314,17 @@ impl Object {
             }
             _ => (Terminator::Plain, Vec3::ZERO, None),
         };
-        SurfacePoint { p, p_error, ng, n, entering, terminator, lift, bumps }
+        SurfacePoint {
+            p,
+            p_error,
+            ng,
+            n,
+            entering,
+            terminator,
+            lift,
+            bumps,
+            origin: Some(RayOrigin::of_hit(hit)),
+        }
     }
 
     /// `(1-u-v) p0 + u p1 + v p2` with its rounding error bound (pbrt-v4's barycentric bound).

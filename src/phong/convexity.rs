@@ -1,0 +1,304 @@
+//! Which side a Phong patch is convex towards, and the proof that an occlusion ray leaving a
+//! point of a patch cannot meet that patch again (so its solve can be left out).
+//!
+//! A patch is the quadratic `P(u, v) = A u² + B v² + C uv + D u + E v + F`. Its height above the
+//! tangent plane at `(u0, v0)`, along any vector `n`, is exactly
+//! `h(du, dv) = (Pu·n) du + (Pv·n) dv + (A·n) du² + (C·n) du dv + (B·n) dv²` (the Taylor
+//! expansion of a quadratic stops at the second order), with `Pu`, `Pv` at `(u0, v0)`. For `n`
+//! the normal `Pu × Pv` the first-order terms vanish, and the quadratic form is the second
+//! fundamental form there (times `|n|`). Where it is negative semidefinite the whole patch lies on
+//! or below the tangent plane: a ray that starts on or above it and leaves upwards never meets the
+//! patch. [`convexity`] proves that for every point of a patch at once, on the Bernstein
+//! coefficients of `A·N`, `B·N` and `4 (A·N)(B·N) - (C·N)²` over the triangle, `N = Pu × Pv`;
+//! [`leaves_patch`] decides one ray, with a bound on whatever the proof does not cover.
+
+use std::sync::atomic::{AtomicU64, Ordering};
+
+use super::patch::{quadratic_range, Patch};
+use super::real::{Real, V3};
+
+/// The sides of a patch it is convex towards: where a flag is set, the patch lies on or below
+/// each of its tangent planes as seen from that side (its second fundamental form is negative
+/// semidefinite at every point of the triangle, proved on Bernstein coefficients with a margin for
+/// rounding). A planar patch may have neither flag: rounding leaves its curvature a tiny number of
+/// either sign, which [`leaves_patch`] bounds instead.
+#[derive(Clone, Copy, Debug, Default, PartialEq, Eq)]
+pub struct Convexity {
+    /// Convex towards the side `Pu × Pv` points to (as a sphere with outward normals).
+    pub front: bool,
+    /// Convex towards the other side.
+    pub back: bool,
+}
+
+/// The degree-2 multi-indices `(i, j, k)` of the Bernstein basis on the triangle, for the
+/// coefficients at the corners `w = 1`, `u = 1`, `v = 1` and the edge midpoints `wu`, `uv`, `vw`.
+const DEG2: [[usize; 3]; 6] = [[2, 0, 0], [0, 2, 0], [0, 0, 2], [1, 1, 0], [0, 1, 1], [1, 0, 1]];
+
+/// `n! / (i! j! k!)` for `i + j + k = n <= 4`.
+fn multinomial(a: [usize; 3]) -> f64 {
+    const FACT: [f64; 5] = [1.0, 1.0, 2.0, 6.0, 24.0];
+    FACT[a[0] + a[1] + a[2]] / (FACT[a[0]] * FACT[a[1]] * FACT[a[2]])
+}
+
+/// The degree-4 Bernstein coefficients (indexed `5 i + j` by the multi-index's first two entries)
+/// of `p q` for degree-2 polynomials with coefficients `p`, `q` in [`DEG2`] order.
+fn product(p: &[f64; 6], q: &[f64; 6]) -> [f64; 25] {
+    let mut out = [0.0; 25];
+    for (a, pa) in DEG2.iter().zip(p) {
+        for (b, qb) in DEG2.iter().zip(q) {
+            let g = [a[0] + b[0], a[1] + b[1], a[2] + b[2]];
+            out[5 * g[0] + g[1]] += multinomial(*a) * multinomial(*b) / multinomial(g) * pa * qb;
+        }
+    }
+    out
+}
+
+/// The degree-2 Bernstein coefficients of `N = Pu × Pv` over the triangle, in [`DEG2`] order:
+/// `Pu` and `Pv` are linear, so the coefficients are the corner products and, on each edge, the
+/// mean of the two cross products of one corner's `Pu` with the other's `Pv`.
+fn normal_coefficients(k: &[V3<f64>; 6]) -> [V3<f64>; 6] {
+    let [a, b, c, d, e, _] = *k;
+    // Pu = 2A u + C v + D and Pv = C u + 2B v + E at the corners (0,0), (1,0), (0,1).
+    let pu = [d, a * 2.0 + d, c + d];
+    let pv = [e, c + e, b * 2.0 + e];
+    let mixed = |i: usize, j: usize| (pu[i].cross(pv[j]) + pu[j].cross(pv[i])) * 0.5;
+    [pu[0].cross(pv[0]), pu[1].cross(pv[1]), pu[2].cross(pv[2]), mixed(0, 1), mixed(1, 2), mixed(2, 0)]
+}
+
+/// Prove on which sides `p` is convex (see [`Convexity`]): computed in f64 from the patch's own
+/// coefficients (those the intersector solves), each Bernstein coefficient required to keep its
+/// sign by a margin far above the f64 rounding of its computation.
+pub fn convexity<T: Real>(p: &Patch<T>) -> Convexity {
+    if p.degenerate() {
+        return Convexity::default();
+    }
+    let k = p.coefficients().map(|x| x.to_f64());
+    let [a, b, c, ..] = k;
+    let n = normal_coefficients(&k);
+    let dots = |x: V3<f64>| n.map(|nk| x.dot(nk));
+    let (l, m, nn) = (dots(a), dots(c), dots(b));
+    // Compute the determinant 4 (A·N)(B·N) - (C·N)² in degree 4.
+    let (ln, mm) = (product(&l, &nn), product(&m, &m));
+    let det: Vec<f64> = (0..25).filter(|i| i / 5 + i % 5 <= 4).map(|i| 4.0 * ln[i] - mm[i]).collect();
+    // Compute the rounding margins: every term is a product of at most four coefficients of the
+    // patch, each computed with a relative error of a few f64 ulps.
+    let nmax = n.iter().map(|x| x.abs().x + x.abs().y + x.abs().z).fold(0.0, f64::max);
+    let size = [a, b, c].iter().map(|x| x.max_abs()).fold(0.0, f64::max) * nmax;
+    let (tol, tol_det) = (1e-12 * size, 1e-12 * 5.0 * size * size);
+    let det_ok = det.iter().all(|&x| x >= tol_det);
+    let all = |v: &[f64; 6], f: &dyn Fn(f64) -> bool| v.iter().all(|&x| f(x));
+    Convexity {
+        front: det_ok && all(&l, &|x| x <= -tol) && all(&nn, &|x| x <= -tol),
+        back: det_ok && all(&l, &|x| x >= tol) && all(&nn, &|x| x >= tol),
+    }
+}
+
+/// Whether the ray `org + t dir`, `t` in `(tnear, ..)`, starting at (or near) the point `(u0, v0)`
+/// of `p` (whose [`convexity`] is `conv`), provably never meets `p`: then its solve can be left
+/// out. The ray must leave the tangent plane at `(u0, v0)` on one side and start above everything
+/// of the patch on that side: nothing where the patch is convex towards it, otherwise the exact
+/// maximum height of the patch above the plane over the triangle (tiny for a planar patch, whose
+/// curvature is rounding; zero where the patch bends away over the whole triangle, as near an edge
+/// whose far side would rise). Computed in f64, with a margin far above its rounding;
+/// `false` whenever in doubt (a point outside the triangle, a ray along the plane, a negative
+/// `tnear`, a degenerate normal).
+#[inline]
+pub fn leaves_patch<T: Real>(
+    p: &Patch<T>,
+    conv: Convexity,
+    u0: f32,
+    v0: f32,
+    org: V3<f32>,
+    dir: V3<f32>,
+    tnear: f32,
+) -> bool {
+    let (u, v) = (u0 as f64, v0 as f64);
+    if !(u >= 0.0 && v >= 0.0 && u + v <= 1.0 && tnear >= 0.0) {
+        return false;
+    }
+    // Compute the point, its partials and normal, and the ray, in the patch's local frame.
+    let [a, b, c, d, e, f] = p.coefficients().map(|x| x.to_f64());
+    let (pu, pv) = (a * (2.0 * u) + c * v + d, b * (2.0 * v) + c * u + e);
+    let n = pu.cross(pv);
+    let p0 = a * (u * u) + b * (v * v) + c * (u * v) + d * u + e * v + f;
+    let inv = p.inv_scale().to_f64();
+    let o = (org.to_f64() - p.center().to_f64()) * inv;
+    let dl = dir.to_f64() * inv;
+    // Compute the margin: every quantity below is a short sum of products of these magnitudes.
+    let mag = pu.length() * pv.length();
+    let size = 1.0 + o.length() + p0.length() + a.length() + b.length() + c.length();
+    let margin = 1e-10 * mag * size;
+    // Compute the side the ray leaves towards, and orient the normal to it.
+    let sd = dl.dot(n);
+    if !(sd.abs() > 1e-10 * mag * dl.length()) {
+        return false;
+    }
+    let (n, convex) = if sd > 0.0 { (n, conv.front) } else { (-n, conv.back) };
+    // Compute how high the patch reaches above the tangent plane over the triangle: where the
+    // flag proves it convex, no higher than the first-order terms (zero but for rounding; |du|,
+    // |dv| <= 1); otherwise the exact maximum of the height, a quadratic in (u, v).
+    let top = if convex {
+        pu.dot(n).abs() + pv.dot(n).abs()
+    } else {
+        quadratic_range([a.dot(n), b.dot(n), c.dot(n), d.dot(n), e.dot(n), (f - p0).dot(n)]).1
+    };
+    let height = (o - p0).dot(n);
+    height > top + margin
+}
+
+/// The audit of origin skips: while on, every patch solve left out by [`leaves_patch`] is run
+/// anyway and counted; one that hits panics, naming the patch (in a ray callback the panic is
+/// resumed in the caller of the query). On with [`audit::set`], or for a whole process with the
+/// environment variable `PHONGRT_AUDIT_ORIGIN_SKIPS=1` (how the tests audit `phongrt render`).
+pub mod audit {
+    use super::{AtomicU64, Ordering};
+    use std::sync::atomic::AtomicU8;
+
+    /// 0: not yet read from the environment, 1: off, 2: on.
+    static STATE: AtomicU8 = AtomicU8::new(0);
+    static SKIPPED: AtomicU64 = AtomicU64::new(0);
+    static HITS: AtomicU64 = AtomicU64::new(0);
+
+    /// Turn the audit on or off (process-wide).
+    pub fn set(on: bool) {
+        STATE.store(if on { 2 } else { 1 }, Ordering::SeqCst);
+    }
+
+    /// Whether the audit is on.
+    #[inline]
+    pub fn on() -> bool {
+        match STATE.load(Ordering::Relaxed) {
+            0 => {
+                let on = std::env::var_os("PHONGRT_AUDIT_ORIGIN_SKIPS").is_some_and(|v| v == "1");
+                // Another thread's `set` wins over the environment.
+                let _ = STATE.compare_exchange(0, if on { 2 } else { 1 }, Ordering::SeqCst, Ordering::SeqCst);
+                STATE.load(Ordering::SeqCst) == 2
+            }
+            s => s == 2,
+        }
+    }
+
+    /// Count one audited skip of patch `prim`; `hit` is the `t` its full solve found, if any.
+    ///
+    /// # Panics
+    /// When the skipped solve hits: the skip would have changed the answer.
+    pub fn record(prim: u32, hit: Option<f32>) {
+        SKIPPED.fetch_add(1, Ordering::Relaxed);
+        if let Some(t) = hit {
+            HITS.fetch_add(1, Ordering::Relaxed);
+            panic!("origin skip audit: patch {prim} was left out, but its solve hits at t = {t:e}");
+        }
+    }
+
+    /// `(skipped solves, of which hits)` counted since the process started.
+    pub fn counts() -> (u64, u64) {
+        (SKIPPED.load(Ordering::SeqCst), HITS.load(Ordering::SeqCst))
+    }
+}
+
+#[cfg(test)]
+mod tests {
+    use super::*;
+    use crate::phong::{intersect, Method};
+    use crate::rng::SplitMix;
+    use glam::DVec3;
+
+    /// A patch over the triangle (0,0,0), (1,0,0), (0,1,0) whose vertex normals tilt by `k`
+    /// outwards from the centroid (k > 0: a dome towards +z, k < 0: a bowl).
+    fn dome(k: f64) -> Patch<f32> {
+        let p = [DVec3::ZERO, DVec3::X, DVec3::Y];
+        let c = (p[0] + p[1] + p[2]) / 3.0;
+        let n = p.map(|q| DVec3::Z + (q - c) * k);
+        Patch::new(p, n, 1.0)
+    }
+
+    /// A saddle: corner normals tilted so that the patch rises along one edge and falls along another.
+    fn saddle() -> Patch<f32> {
+        let p = [DVec3::ZERO, DVec3::X, DVec3::Y];
+        let n = [DVec3::Z, DVec3::new(0.6, 0.0, 1.0), DVec3::new(0.0, -0.6, 1.0)];
+        Patch::new(p, n, 1.0)
+    }
+
+    #[test]
+    fn a_dome_is_convex_towards_its_front_a_bowl_towards_its_back_a_saddle_neither() {
+        assert_eq!(convexity(&dome(0.8)), Convexity { front: true, back: false });
+        assert_eq!(convexity(&dome(-0.8)), Convexity { front: false, back: true });
+        assert_eq!(convexity(&saddle()), Convexity { front: false, back: false });
+    }
+
+    fn unit(rng: &mut SplitMix) -> f32 {
+        (rng.next_u64() >> 40) as f32 / (1u64 << 24) as f32
+    }
+
+    /// Rays from `n` random points of `p` (lifted by `lift` along the true normal, in local
+    /// units) in random directions: how many `leaves_patch` settles, after checking that none of
+    /// those is hit by the f64 solve.
+    fn settled(p: &Patch<f32>, lift: f32, n: usize, seed: u64) -> usize {
+        let conv = convexity(p);
+        let p64 = p.cast::<f64>();
+        let mut rng = SplitMix(seed);
+        let mut count = 0;
+        for _ in 0..n {
+            let (mut u, mut v) = (unit(&mut rng), unit(&mut rng));
+            if u + v > 1.0 {
+                (u, v) = (1.0 - u, 1.0 - v);
+            }
+            let ng = p.geometric_normal(u, v).unwrap();
+            let d = V3::new(unit(&mut rng) - 0.5, unit(&mut rng) - 0.5, unit(&mut rng) - 0.5) * 2.0;
+            let side = if unit(&mut rng) < 0.5 { -1.0 } else { 1.0 };
+            let org = p.eval(u, v) + ng * (side * lift * p.scale());
+            if leaves_patch(p, conv, u, v, org, d, 0.0) {
+                count += 1;
+                let hit = intersect(&p64, org.cast(), d.cast(), 0.0, f64::INFINITY, Method::Certified);
+                assert!(hit.is_none(), "settled, yet hit: u {u} v {v} dir {d:?} hit {hit:?}");
+            }
+        }
+        count
+    }
+
+    #[test]
+    fn rays_leaving_a_dome_outwards_are_settled_and_none_of_them_hits() {
+        // About a quarter of the random rays start on the outer side and leave outwards.
+        let n = settled(&dome(0.8), 1e-5, 4000, 1);
+        assert!(n > 700, "{n}");
+    }
+
+    #[test]
+    fn rays_across_a_bowl_or_a_saddle_are_settled_only_where_they_cannot_hit() {
+        // Rays leaving a bowl upwards may cross it again: only the steep ones are settled, and
+        // `settled` checks none of them hits.
+        let bowl = settled(&dome(-0.8), 1e-5, 4000, 2);
+        let saddle = settled(&saddle(), 1e-5, 4000, 3);
+        assert!(bowl < 3000 && saddle < 3000, "{bowl} {saddle}");
+        // A ray from the bowl's middle, rising slowly towards a corner (the corners are the
+        // bowl's highest points), meets the bowl again: never settled.
+        let b = dome(-0.8);
+        let (u, v) = (1.0 / 3.0, 1.0 / 3.0);
+        assert!(b.eval(u, v).z < -0.02, "{:?}", b.eval(u, v));
+        let org = b.eval(u, v) + b.geometric_normal(u, v).unwrap() * 1e-5;
+        let d = V3::new(2.0 / 3.0, -1.0 / 3.0, 0.01);
+        assert!(!leaves_patch(&b, convexity(&b), u, v, org, d, 0.0));
+        assert!(intersect(&b, org, d, 0.0, f32::INFINITY, Method::Certified).is_some());
+    }
+
+    #[test]
+    fn a_ray_starting_below_the_tangent_plane_is_never_settled() {
+        let p = dome(0.8);
+        let (u, v) = (0.3, 0.3);
+        let ng = p.geometric_normal(u, v).unwrap();
+        let below = p.eval(u, v) - ng * 1e-4;
+        assert!(!leaves_patch(&p, convexity(&p), u, v, below, ng, 0.0));
+        // The same ray from just above is settled; outside the triangle nothing is.
+        let above = p.eval(u, v) + ng * 1e-4;
+        assert!(leaves_patch(&p, convexity(&p), u, v, above, ng, 0.0));
+        assert!(!leaves_patch(&p, convexity(&p), 0.7, 0.7, above, ng, 0.0));
+        assert!(!leaves_patch(&p, convexity(&p), u, v, above, ng, -1.0));
+    }
+
+    #[test]
+    fn a_planar_patch_is_settled_on_both_sides() {
+        let p: Patch<f32> = Patch::new([DVec3::ZERO, DVec3::X, DVec3::Y], [DVec3::Z; 3], 1.0);
+        let n = settled(&p, 1e-5, 2000, 4);
+        assert!(n > 900, "{n}");
+    }
+}
