@@ -47,19 +47,13 @@ fn render_audited(device: &Device, path: &Path) {
     });
     world.ambient_occlusion = Some(AmbientOcclusion { samples: 2, distance: r });
     let camera = Camera::frame_bounds(lo, hi, 1.0);
+    let pool = phongrt_render::thread_pool(Some(2)).unwrap();
     for terminator in [Terminator::Lift, Terminator::Plain] {
         world.terminator = terminator;
         for packets in [true, false] {
-            let s = RenderSettings {
-                width: 24,
-                height: 24,
-                spp: 1,
-                threads: Some(2),
-                progress: false,
-                seed: 0,
-                packets,
-            };
-            render(&world, &camera, &s).unwrap_or_else(|e| panic!("{}: {e}", path.display()));
+            let s = RenderSettings { width: 24, height: 24, spp: 1, seed: 0, packets };
+            pool.install(|| render(&world, &camera, &s))
+                .unwrap_or_else(|e| panic!("{}: {e}", path.display()));
         }
     }
 }
