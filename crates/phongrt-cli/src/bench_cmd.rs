@@ -37,7 +37,7 @@ pub(crate) fn bench_cmd(args: cli::BenchArgs) -> anyhow::Result<()> {
         scenes.push((format!("sphere-{}", m.indices.len()), m));
     }
     for p in &args.models {
-        let s = load(p, &LoadOptions::default())?;
+        let s = load(p, &LoadOptions::default(), true)?;
         let name = p.file_stem().map(|s| s.to_string_lossy().into_owned()).unwrap_or_default();
         let m = s.meshes.into_iter().next().with_context(|| format!("{}: no mesh", p.display()))?;
         scenes.push((name, m));

@@ -28,7 +28,7 @@ pub(crate) fn largest_deviation(s: &scene::Scene) -> Option<(f64, usize, usize)>
 }
 
 pub(crate) fn info_cmd(args: InfoArgs) -> anyhow::Result<()> {
-    let s = load(&args.scene, &load_options(&args.load, args.load.crease_angle)?)?;
+    let s = load(&args.scene, &load_options(&args.load, args.load.crease_angle)?, true)?;
     let device = Device::new().context("cannot start Embree")?;
     let (major, minor, patch) = device.version();
     let st = &s.stats;

@@ -9,6 +9,7 @@ use glam::Vec3;
 use crate::cli::{self, RenderArgs};
 use crate::load::{load, load_options, parse_object_override};
 use crate::plan::{plan, RenderPlan};
+use crate::progress::Stage;
 use crate::Usage;
 use phongrt::embree::Device;
 use phongrt::scene::{self, LoadOptions};
@@ -119,7 +120,7 @@ impl RenderJob {
         // Load the mesh, and check the object names given for it.
         let crease = sf.and_then(|s| s.crease_angle).unwrap_or(args.load.crease_angle);
         let load_opts = load_options(&args.load, crease)?;
-        let input = load(&source.obj, &load_opts)?;
+        let input = load(&source.obj, &load_opts, !args.quiet)?;
         for (name, _) in &overrides {
             if !(name == "*" || input.meshes.iter().any(|m| m.name == *name)) {
                 usage!(
@@ -254,9 +255,16 @@ impl RenderJob {
     /// The world to render: every object in its mode (or all in `forced`), the key light
     /// following the camera unless the scene file places lights, and the scene file's settings.
     pub(crate) fn world(&self, device: &Device, forced: Option<ObjectMode>) -> anyhow::Result<World> {
-        let mut world = World::from_scene_with_ground(device, &self.input, self.ground, |_, mesh| {
+        let what = match forced {
+            Some(ObjectMode::Flat) => "building the flat scene",
+            _ => "building the scene",
+        };
+        let building = Stage::start(what.to_string(), self.progress);
+        let world = World::from_scene_with_ground(device, &self.input, self.ground, |_, mesh| {
             self.modes.settings(forced, mesh)
-        })?;
+        });
+        drop(building);
+        let mut world = world?;
         world.shading = self.shading;
         world.terminator = self.terminator;
         if forced.is_none() {

@@ -652,6 +652,38 @@ impl World {
         }
     }
 
+    /// The most rays one pixel sample can cost by the effects plan: a primary ray, then at
+    /// each shading point a shadow ray per hard-shadow light, `samples` per area light, the
+    /// ambient-occlusion and environment samples and a terminator check per light, and, where an
+    /// object reflects or refracts, up to two branches per bounce to `max_depth`. An upper
+    /// bound: rays that miss, or points facing away from a light, cost less.
+    pub fn rays_per_sample_bound(&self) -> f64 {
+        // Compute the rays at one shading point.
+        let lights: f64 = self
+            .lights
+            .iter()
+            .map(|l| match *l {
+                Light::Sphere { samples, .. } => samples.max(1) as f64,
+                _ if l.casts_shadows() => 2.0,
+                _ => 0.0,
+            })
+            .sum();
+        let ao = self.ambient_occlusion.map_or(0.0, |a| a.samples.max(1) as f64);
+        let env = self.environment.as_ref().map_or(0.0, |e| e.samples.max(1) as f64);
+        let at_point = 1.0 + lights + ao + env;
+
+        // Compute the branching of reflection and refraction.
+        let reflects = self.objects.iter().any(|o| o.surface.reflects());
+        let refracts = self.objects.iter().any(|o| o.surface.refracts());
+        let branches = match (reflects, refracts) {
+            (_, true) => 2.0,
+            (true, false) => 1.0,
+            (false, false) => 0.0,
+        };
+        let points: f64 = (0..=self.max_depth.min(16)).map(|k| f64::powi(branches, k as i32)).sum();
+        at_point * points
+    }
+
     /// Radiance along a camera ray; `rng` feeds area-light and AO sampling.
     pub fn shade(&self, ray: Ray, counts: &mut RayCounts, rng: &mut Rng) -> Vec3 {
         counts.primary += 1;
