@@ -117,6 +117,20 @@ fn fails_with(args: &[&str], needle: &str) {
 }
 
 /// Bad usage (a flag's value): exit status 2.
+#[test]
+fn info_counts_straightened_edges_and_bulge_limit_inf_keeps_them_curved() {
+    phongrt().args(["info", "scenes/sliver_coin.obj"]).assert().success().stdout(
+        predicate::str::contains("straightened: 720 smooth edges")
+            .and(predicate::str::contains("deviation: largest patch offset from its flat triangle 0.3")),
+    );
+    phongrt()
+        .args(["info", "scenes/sliver_coin.obj", "--bulge-limit", "inf"])
+        .assert()
+        .success()
+        .stdout(predicate::str::contains("straightened").not().and(predicate::str::contains("triangle 3.7")));
+    fails_usage(&["info", "scenes/sliver_coin.obj", "--bulge-limit", "0"], "--bulge-limit 0");
+}
+
 fn fails_usage(args: &[&str], needle: &str) {
     fails_with_code(args, needle, 2)
 }

@@ -168,6 +168,11 @@ pub struct LoadArgs {
     /// a warning, as their edges would be non-manifold and straight).
     #[arg(long)]
     pub keep_duplicate_faces: bool,
+    /// Keep a smooth edge straight when its curve (at alpha 1) would stand off its chord by more
+    /// than this many times the height of a triangle beside it: no balloons on slivers. `inf`
+    /// keeps every smooth edge curved (the rule before).
+    #[arg(long, default_value_t = phongrt::mesh::BULGE_LIMIT)]
+    pub bulge_limit: f32,
 }
 
 #[derive(Args, Debug)]
