@@ -553,6 +553,12 @@ fn warn_skipped_input(raw: &obj::RawObj, name: &str, warnings: &mut Vec<String>)
             raw.bad_texcoords
         ));
     }
+    if let Some(line) = raw.first_non_finite_normal_line {
+        warnings.push(format!(
+            "{name}:{line}: {} `vn` lines with a coordinate that is not a finite number (first here); their corners get computed normals",
+            raw.non_finite_normals
+        ));
+    }
     if raw.skipped_statements > 0 {
         warnings.push(format!(
             "{name}: skipped {} unsupported statements (curves, surfaces, ...)",
@@ -912,7 +918,8 @@ fn welded_triangles(
         }
         let file_normal = t.map(|c| {
             c.n.map(|n| raw.normals[n as usize]).and_then(|n| {
-                let r = n.try_normalize();
+                // A huge f32 normal overflows its f32 length: then in f64. NaN gives None.
+                let r = n.try_normalize().or_else(|| n.as_dvec3().try_normalize().map(|d| d.as_vec3()));
                 if r.is_none() {
                     stats.zero_normals_replaced += 1;
                 }
