@@ -153,6 +153,15 @@ pub struct CameraArgs {
     /// Vertical field of view in degrees, in (0, 180) [default: 35].
     #[arg(long)]
     pub fov: Option<f32>,
+    /// With a ground, frame the model and the shadow it casts under the key light together (on),
+    /// or the model alone (off, the rule before).
+    #[arg(long, value_enum, default_value_t = Switch::On)]
+    pub frame_shadow: Switch,
+    /// Turn the default view's front towards a face (objects named head, face, eye, Kopf, ...) or
+    /// so a handle shows (on), or keep the exporters' convention and long models' head end (off,
+    /// the rule before).
+    #[arg(long, value_enum, default_value_t = Switch::On)]
+    pub front_cues: Switch,
 }
 
 #[derive(Args, Debug)]
