@@ -27,7 +27,7 @@ pub(crate) fn load_options(args: &LoadArgs, crease_angle: f32) -> anyhow::Result
     if !(0.0..=0.1).contains(&tol) {
         usage!("--normal-tolerance {tol} is not in [0, 0.1] radians");
     }
-    if !(args.bulge_limit > 0.0) {
+    if args.bulge_limit.is_nan() || args.bulge_limit <= 0.0 {
         usage!("--bulge-limit {} is not a positive number (inf turns the rule off)", args.bulge_limit);
     }
     Ok(LoadOptions {
