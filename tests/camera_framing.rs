@@ -160,7 +160,7 @@ fn a_given_up_axis_is_the_cameras_and_the_key_light_is_at_its_upper_left() {
 
 /// The default view with or without a ground (and front cues, the default) of `input`.
 fn view_on_ground(input: &phongrt::scene::Scene, ground: bool, front_cues: bool, aspect: f32) -> Camera {
-    let options = DefaultViewOptions { ground, ground_height: None, front_cues };
+    let options = DefaultViewOptions { ground, front_cues, ..DefaultViewOptions::default() };
     default_view_with(input, None, 0.0, None, aspect, options).0
 }
 
@@ -280,4 +280,33 @@ fn the_spider_shows_its_face_and_the_mug_its_handle() {
 
 fn root() -> std::path::PathBuf {
     Path::new(env!("CARGO_MANIFEST_DIR")).to_path_buf()
+}
+
+#[test]
+fn a_given_light_casts_the_framed_shadow() {
+    // A scene file's directional light (scenes/figure1_sphere.toml's) replaces the key light.
+    let input = load_obj(&root().join("scenes/sphere_lowpoly.obj"), &LoadOptions::default()).unwrap();
+    let light = Vec3::new(-0.5, 0.7, 0.6).normalize();
+    let (w, h) = (120u32, 320u32);
+    let inside = |ground| {
+        let opts = DefaultViewOptions { ground, ground_light: Some(light), ..DefaultViewOptions::default() };
+        let camera = default_view_with(&input, None, 0.0, None, w as f32 / h as f32, opts).0;
+        let frame = camera.frame(w as f32 / h as f32).unwrap();
+        let points: Vec<Vec3> = input.meshes[0].positions.clone();
+        let bottom = input.bounds().0.y;
+        let shadows = shadow_points(&points, Vec3::Y, bottom, light);
+        let n = shadows
+            .iter()
+            .filter(|s| {
+                frame
+                    .project(**s, w, h)
+                    .is_some_and(|(x, y)| (0.0..=w as f32).contains(&x) && (0.0..=h as f32).contains(&y))
+            })
+            .count();
+        n as f32 / shadows.len() as f32
+    };
+    let (with, without) = (inside(true), inside(false));
+    println!("shadow of the given light inside the frame: {with:.3} (model alone framed: {without:.3})");
+    assert_eq!(with, 1.0);
+    assert!(without < 1.0);
 }

@@ -311,10 +311,20 @@ pub(crate) fn resolve_camera(
     let sf_camera = sf.map(|s| s.camera.clone()).unwrap_or_default();
     let single_orbit = if plan.frames.is_some() { None } else { args.farm.orbit };
     // With a ground, the default view frames the model's shadow too (--frame-shadow off: not).
+    // A scene file's lights replace the key light: the first directional one casts the shadow
+    // to frame; with only point or sphere lights the model is framed alone.
     let sf_ground = sf.and_then(|s| s.ground.as_ref());
+    let sf_lights = sf.map(|s| &s.lights[..]).unwrap_or_default();
+    let ground_light = sf_lights.iter().find_map(|l| match l {
+        LightSection::Directional { direction, .. } => Some(Vec3::from(*direction)),
+        _ => None,
+    });
     let options = render::camera::DefaultViewOptions {
-        ground: (args.ground || sf_ground.is_some()) && args.camera.frame_shadow == cli::Switch::On,
+        ground: (args.ground || sf_ground.is_some())
+            && args.camera.frame_shadow == cli::Switch::On
+            && (sf_lights.is_empty() || ground_light.is_some()),
         ground_height: sf_ground.and_then(|g| g.height),
+        ground_light,
         front_cues: args.camera.front_cues == cli::Switch::On,
     };
     let (mut camera, detection) = render::camera::default_view_with(

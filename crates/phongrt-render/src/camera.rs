@@ -142,6 +142,9 @@ pub struct ViewSpec {
     /// shadow the model casts on it under the camera's key light too
     /// ([`Camera::key_light_direction`]). `None`: no ground, the model alone.
     pub ground: Option<f32>,
+    /// The direction towards the light whose shadow on the ground is framed (unit); `None`: the
+    /// camera's key light.
+    pub ground_light: Option<Vec3>,
 }
 
 impl ViewSpec {
@@ -155,6 +158,7 @@ impl ViewSpec {
             fov_y_deg: 35.0,
             fill: DEFAULT_FILL,
             ground: None,
+            ground_light: None,
         }
     }
 }
@@ -210,8 +214,11 @@ impl Camera {
         // Compute what to frame: the points, and their shadows on the ground if there is one.
         let mut framed = points.to_vec();
         if let Some(h) = spec.ground {
-            let light = Camera { eye: back, look_at: Vec3::ZERO, up, fov_y_deg: spec.fov_y_deg }
-                .key_light_direction();
+            let key = Camera { eye: back, look_at: Vec3::ZERO, up, fov_y_deg: spec.fov_y_deg };
+            let light = spec
+                .ground_light
+                .and_then(|l| l.try_normalize())
+                .unwrap_or_else(|| key.key_light_direction());
             framed.extend(shadow_points(points, up, h, light));
         }
         let points = &framed[..];
@@ -269,6 +276,9 @@ pub struct DefaultViewOptions {
     /// The ground's height along the up axis; `None`: the bottom of the scene's bounds, where
     /// the ground is placed by default.
     pub ground_height: Option<f32>,
+    /// The direction towards the light whose shadow is framed; `None`: the key light that
+    /// follows the camera ([`Camera::key_light_direction`]).
+    pub ground_light: Option<Vec3>,
     /// Turn the front towards a face its object names mark, or so a handle shows
     /// ([`named_part_front`], [`handle_front`]); `false`: the exporters' convention and the head
     /// end of long models only (the rule before).
@@ -277,7 +287,7 @@ pub struct DefaultViewOptions {
 
 impl Default for DefaultViewOptions {
     fn default() -> Self {
-        DefaultViewOptions { ground: false, ground_height: None, front_cues: true }
+        DefaultViewOptions { ground: false, ground_height: None, ground_light: None, front_cues: true }
     }
 }
 
@@ -327,6 +337,7 @@ pub fn default_view_with(
     let (lo, hi) = scene.bounds();
     spec.ground =
         options.ground.then(|| options.ground_height.unwrap_or_else(|| lowest_corner(lo, hi, spec.up)));
+    spec.ground_light = options.ground_light;
     let points: Vec<Vec3> = scene.meshes.iter().flat_map(|m| m.positions.iter().copied()).collect();
     let camera = Camera::three_quarter(&points, (lo, hi), &spec, aspect)
         .unwrap_or_else(|| Camera { up: spec.up, ..Camera::frame_bounds(lo, hi, aspect) });
