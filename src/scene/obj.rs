@@ -69,6 +69,11 @@ pub struct RawObj {
     pub first_skipped_element_line: Option<usize>,
     /// Whether a `usemtl` came before any `mtllib` (a warning when no `mtllib` follows).
     pub usemtl_without_mtllib: bool,
+    /// `vn` lines with a coordinate that is not a finite number (NaN, infinite, or past the f32
+    /// range): kept as a NaN normal, which the loader replaces by a computed one.
+    pub non_finite_normals: usize,
+    /// The first such line, for the warning.
+    pub first_non_finite_normal_line: Option<usize>,
 }
 
 fn malformed(path: &Path, line: usize, msg: impl Into<String>) -> SceneError {
@@ -76,6 +81,20 @@ fn malformed(path: &Path, line: usize, msg: impl Into<String>) -> SceneError {
 }
 
 fn parse_floats<const N: usize>(
+    path: &Path,
+    line: usize,
+    what: &str,
+    args: &[&str],
+) -> Result<[f32; N], SceneError> {
+    let out = parse_numbers::<N>(path, line, what, args)?;
+    if let Some(i) = out.iter().position(|x| !x.is_finite()) {
+        return Err(SceneError::NonFinite { path: path.to_path_buf(), line, value: cut_token(args[i]) });
+    }
+    Ok(out)
+}
+
+/// The first `N` numbers of a statement, which may be infinite or NaN (`nan`, `inf`, `1e39`).
+fn parse_numbers<const N: usize>(
     path: &Path,
     line: usize,
     what: &str,
@@ -89,9 +108,6 @@ fn parse_floats<const N: usize>(
         let x: f32 = a
             .parse()
             .map_err(|_| malformed(path, line, format!("`{what}`: {} is not a number", cut_token(a))))?;
-        if !x.is_finite() {
-            return Err(SceneError::NonFinite { path: path.to_path_buf(), line, value: cut_token(a) });
-        }
         out[i] = x;
     }
     Ok(out)
@@ -187,8 +203,14 @@ impl Parser<'_> {
                 self.obj.positions.push(Vec3::new(x, y, z));
             }
             "vn" => {
-                let [x, y, z] = parse_floats::<3>(path, line, "vn", args)?;
-                self.obj.normals.push(Vec3::new(x, y, z));
+                // A normal that is not finite is kept as NaN (replaced by a computed one, with a
+                // warning); a position that is not finite is an error.
+                let n = Vec3::from(parse_numbers::<3>(path, line, "vn", args)?);
+                if !n.is_finite() {
+                    self.obj.non_finite_normals += 1;
+                    self.obj.first_non_finite_normal_line.get_or_insert(line);
+                }
+                self.obj.normals.push(if n.is_finite() { n } else { Vec3::NAN });
             }
             "vt" => self.texcoord(line, args)?,
             "f" | "l" | "p" if args.len() < 3 || kw != "f" => {

@@ -28,10 +28,14 @@ pub(crate) fn load_options(args: &LoadArgs, crease_angle: f32) -> anyhow::Result
     if !(0.0..=0.1).contains(&tol) {
         usage!("--normal-tolerance {tol} is not in [0, 0.1] radians");
     }
+    if args.bulge_limit.is_nan() || args.bulge_limit <= 0.0 {
+        usage!("--bulge-limit {} is not a positive number (inf turns the rule off)", args.bulge_limit);
+    }
     Ok(LoadOptions {
         crease_angle_deg: crease_angle,
         normal_tolerance_rad: tol,
         drop_duplicate_faces: !args.keep_duplicate_faces,
+        bulge_limit: args.bulge_limit,
         ..LoadOptions::default()
     })
 }
