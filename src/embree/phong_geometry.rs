@@ -10,8 +10,10 @@ use glam::Vec3;
 use super::device::EmbreeError;
 use super::scene::Scene;
 use super::user_geometry::{
-    new_user_geometry, OriginPrim, PrimHit, UserData, UserGeometryOptions, UserPrimitives,
+    new_user_geometry, OriginPrim, PacketRays, PrimHit, UserData, UserGeometryOptions, UserPrimitives,
+    MAX_PACKET,
 };
+use crate::phong::intersect::{LaneRays, LANES};
 use crate::phong::mesh::PhongMesh;
 use crate::sys;
 
@@ -48,6 +50,31 @@ impl UserPrimitives for PhongMesh {
         tfar: f32,
     ) -> Option<PrimHit> {
         self.intersect_primitive_from(item, origin, org, dir, tnear, tfar, |_| {})
+    }
+
+    /// The packet's lanes in blocks of [`LANES`], each block tested together
+    /// ([`PhongMesh::intersect_lanes`]).
+    fn intersect_packet(&self, item: u32, rays: &PacketRays, hits: &mut [Option<PrimHit>; MAX_PACKET]) {
+        for start in (0..rays.n.min(MAX_PACKET)).step_by(LANES) {
+            let lane = |i: usize| start + i;
+            let active: [bool; LANES] = std::array::from_fn(|i| lane(i) < rays.n && rays.active[lane(i)]);
+            if !active.iter().any(|&a| a) {
+                continue;
+            }
+            // Lanes past the packet's width read as inactive zeros (their answers are dropped).
+            let field =
+                |a: &[f32; MAX_PACKET]| std::array::from_fn(|i| a.get(lane(i)).copied().unwrap_or(0.0));
+            let block = LaneRays {
+                org: [field(&rays.org[0]), field(&rays.org[1]), field(&rays.org[2])],
+                dir: [field(&rays.dir[0]), field(&rays.dir[1]), field(&rays.dir[2])],
+                tmin: field(&rays.tnear),
+                tmax: field(&rays.tfar),
+            };
+            let found = self.intersect_lanes(item, &block, active);
+            for i in (0..LANES).filter(|&i| active[i]) {
+                hits[lane(i)] = found[i];
+            }
+        }
     }
 }
 

@@ -8,6 +8,7 @@ use glam::{DVec3, Vec3};
 use crate::embree::user_geometry::{OriginPrim, PrimHit};
 use crate::phong::cluster::{group_by_position, hull_entries, Cluster, ClusterHull, CLUSTER_SIZE};
 use crate::phong::convexity::{audit, convexity, leaves_patch, Convexity};
+use crate::phong::intersect::{certified_lanes, LaneDecision, LaneRays, LANES};
 use crate::phong::{
     intersect_in_hull_traced, intersect_traced, Method, Patch, PatchHit, ShadingNormal, TestOutcome, V3,
 };
@@ -555,6 +556,51 @@ impl PhongMesh {
             audit::record(prim, intersect_traced(p, org, dir, tnear, tmax, self.method).0.map(|h| h.t));
         }
         true
+    }
+
+    /// Whether [`PhongMesh::intersect_lanes`] tests lanes together: one patch per primitive
+    /// and [`Method::Certified`] (clusters and the other methods go lane by lane).
+    pub fn tests_lanes_together(&self) -> bool {
+        self.clusters.is_empty() && self.method == Method::Certified
+    }
+
+    /// [`PhongMesh::intersect_primitive`] for the lanes of `rays` where `active`, all of them at
+    /// once (see [`certified_lanes`]) when [`PhongMesh::tests_lanes_together`], lane by lane
+    /// otherwise: the same answers either way. Lanes the lane kernel leaves unsure are solved
+    /// by the scalar path, the hull already passed.
+    pub fn intersect_lanes(
+        &self,
+        item: u32,
+        rays: &LaneRays,
+        active: [bool; LANES],
+    ) -> [Option<PrimHit>; LANES] {
+        let mut hits = [None; LANES];
+        let ray = |i: usize| {
+            let (o, d) = (&rays.org, &rays.dir);
+            (Vec3::new(o[0][i], o[1][i], o[2][i]), Vec3::new(d[0][i], d[1][i], d[2][i]))
+        };
+        if !self.tests_lanes_together() {
+            for i in (0..LANES).filter(|&i| active[i]) {
+                let (o, d) = ray(i);
+                hits[i] = self.intersect_primitive(item, o, d, rays.tmin[i], rays.tmax[i], |_| {});
+            }
+            return hits;
+        }
+        let Some(p) = self.patches.get(item as usize) else { return hits };
+        let answers = certified_lanes(p, rays);
+        for i in (0..LANES).filter(|&i| active[i]) {
+            let hit = match answers.decision[i] {
+                LaneDecision::Miss => None,
+                LaneDecision::Hit => answers.hit(i),
+                LaneDecision::Unsure => {
+                    let (o, d) = ray(i);
+                    let (lo, hi) = (rays.tmin[i], rays.tmax[i]);
+                    intersect_in_hull_traced(p, V3::from(o), V3::from(d), lo, hi, self.method).0
+                }
+            };
+            hits[i] = hit.map(|h| self.prim_hit(p, item, h));
+        }
+        hits
     }
 
     /// The hit Embree is given for `h` on patch `p` (triangle `prim`).
