@@ -16,7 +16,7 @@ set -euo pipefail
 cd "$(dirname "$0")/.."
 command -v valgrind >/dev/null || { echo "instructions.sh: valgrind is not installed" >&2; exit 1; }
 cargo build --release --quiet --example instructions
-bin=target/release/examples/instructions
+bin=${CARGO_TARGET_DIR:-target}/release/examples/instructions
 [ $# -gt 0 ] || set -- sphere-120
 
 # count SCENE KIND WHAT: prints "items instructions".
