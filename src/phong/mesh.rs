@@ -4,6 +4,7 @@
 //! [`crate::embree::phong_geometry`].
 
 use glam::{DVec3, Vec3};
+use multiversion::multiversion;
 
 use crate::embree::user_geometry::{OriginPrim, PrimHit};
 use crate::phong::cluster::{group_by_position, hull_entries, Cluster, ClusterHull, CLUSTER_SIZE};
@@ -242,17 +243,11 @@ fn build_patches(
 }
 
 /// Where the ray enters each member's prism of a cluster (see
-/// [`crate::phong::cluster::hull_entries`]), 8 lanes at once where the CPU has AVX.
-#[inline(always)]
+/// [`crate::phong::cluster::hull_entries`]), 8 lanes at once in one register where the CPU has
+/// AVX (chosen at run time by the `multiversion` crate), in two SSE2 registers otherwise.
+#[multiversion(targets("x86_64+avx"))]
 fn cluster_entries(h: &ClusterHull, org: Vec3, dir: Vec3, tnear: f32, tfar: f32) -> [f32; CLUSTER_SIZE] {
-    let (o, d) = (org.to_array(), dir.to_array());
-    #[cfg(target_arch = "x86_64")]
-    if std::arch::is_x86_feature_detected!("avx") {
-        // SAFETY: `hull_entries_avx` only needs the CPU to have AVX, which was just detected
-        // at run time (it is plain Rust, compiled with AVX enabled).
-        return unsafe { crate::phong::cluster::hull_entries_avx(h, o, d, tnear, tfar) };
-    }
-    hull_entries(h, o, d, tnear, tfar)
+    hull_entries(h, org.to_array(), dir.to_array(), tnear, tfar)
 }
 
 impl PhongMesh {

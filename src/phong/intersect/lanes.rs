@@ -19,6 +19,8 @@
 
 use std::ops::{Add, BitAnd, BitOr, Div, Mul, Neg, Not, Sub};
 
+use multiversion::multiversion;
+
 use super::domain::{domain_tolerance, edge_band};
 use super::retry::sliver_from_afar;
 use super::PatchHit;
@@ -80,47 +82,14 @@ pub fn certified_lanes(p: &Patch<f32>, rays: &LaneRays) -> LaneAnswers {
     if p.degenerate {
         return LaneAnswers::all(LaneDecision::Miss);
     }
-    kernel_for_cpu()(p, rays)
+    kernel_for_cpu(p, rays)
 }
 
-/// The kernel as a plain function pointer: the widest the CPU has.
-type Kernel = fn(&Patch<f32>, &LaneRays) -> LaneAnswers;
-
-/// The widest kernel the CPU runs, detected at run time (std caches the detection).
-#[inline(always)]
-fn kernel_for_cpu() -> Kernel {
-    #[cfg(target_arch = "x86_64")]
-    {
-        if std::arch::is_x86_feature_detected!("avx2") {
-            return |p, r| {
-                // SAFETY: `kernel_avx2` is plain safe Rust compiled with AVX2 enabled: its only
-                // requirement is that the CPU has AVX2, which `is_x86_feature_detected!` has
-                // just confirmed at run time (the one call of a target-feature function in the
-                // lane kernels).
-                unsafe { kernel_avx2(p, r) }
-            };
-        }
-        if std::arch::is_x86_feature_detected!("sse4.1") {
-            return |p, r| {
-                // SAFETY: as above, for SSE 4.1 (just detected at run time).
-                unsafe { kernel_sse41(p, r) }
-            };
-        }
-    }
-    kernel
-}
-
-/// [`kernel`] compiled for AVX2: one 256-bit register per 8 lanes.
-#[cfg(target_arch = "x86_64")]
-#[target_feature(enable = "avx2")]
-fn kernel_avx2(p: &Patch<f32>, rays: &LaneRays) -> LaneAnswers {
-    kernel(p, rays)
-}
-
-/// [`kernel`] compiled for SSE 4.1: two 128-bit registers per 8 lanes, with `blendv` selects.
-#[cfg(target_arch = "x86_64")]
-#[target_feature(enable = "sse4.1")]
-fn kernel_sse41(p: &Patch<f32>, rays: &LaneRays) -> LaneAnswers {
+/// [`kernel`] compiled for the widest vectors the CPU has, chosen at run time by the
+/// `multiversion` crate: AVX2 (one 256-bit register per 8 lanes), SSE 4.1 (two 128-bit
+/// registers, with `blendv` selects), or the baseline target's SSE2.
+#[multiversion(targets("x86_64+avx2", "x86_64+sse4.1"))]
+fn kernel_for_cpu(p: &Patch<f32>, rays: &LaneRays) -> LaneAnswers {
     kernel(p, rays)
 }
 
