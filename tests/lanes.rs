@@ -4,7 +4,7 @@
 //! sphere; and the mesh's packet route (`PhongMesh::intersect_lanes`, what the packet callbacks
 //! call) answers every lane exactly as the single-ray route does.
 use glam::{DVec3, Vec3};
-use phongrt::embree::{PhongMesh, PrimHit};
+use phongrt::embree::{OriginPrim, PhongMesh, PrimHit};
 use phongrt::phong::accuracy::{generate, Category, SplitMix};
 use phongrt::phong::intersect::{certified_lanes, LaneDecision, LaneRays, LANES};
 use phongrt::phong::{intersect, Method, Patch, PatchHit, DEFAULT_ALPHA, V3};
@@ -131,7 +131,7 @@ fn lane_kernel_matches_the_scalar_path_on_a_million_camera_rays() {
 /// The packet route of `mesh` on `rays` against the single-ray route, lane by lane (exact,
 /// including the lanes the kernel leaves to the scalar path); returns how many lanes hit.
 fn check_mesh_route(mesh: &PhongMesh, prim: u32, rays: &LaneRays) -> usize {
-    let got = mesh.intersect_lanes(prim, rays, [true; LANES]);
+    let got = mesh.intersect_lanes(prim, rays, [true; LANES], &[None; LANES]);
     let mut hits = 0;
     for (i, got) in got.iter().enumerate() {
         let o = Vec3::new(rays.org[0][i], rays.org[1][i], rays.org[2][i]);
@@ -141,6 +141,56 @@ fn check_mesh_route(mesh: &PhongMesh, prim: u32, rays: &LaneRays) -> usize {
         hits += want.is_some() as usize;
     }
     hits
+}
+
+/// Rays leaving sphere-120's surface towards a light (the renderer's shadow rays: from a camera
+/// ray's hit, with the hit as their origin) in blocks of 8, against every patch: the mesh's
+/// packet route (the origin patch settled without a solve where it can be, the other lanes
+/// through the kernel) answers every lane exactly as the single-ray route does.
+#[test]
+fn packet_route_with_origins_matches_the_single_ray_route() {
+    let m = uv_sphere(12, 6, 1.0);
+    let mesh = PhongMesh::new(m.positions, m.normals, m.indices, DEFAULT_ALPHA).unwrap();
+    let prims = mesh.patches().len() as u32;
+    let (eye, light) = (Vec3::new(0.3, 0.2, 3.0), Vec3::new(-0.5, 0.8, 0.3).normalize());
+    let nearest = |o: Vec3, d: Vec3| {
+        (0..prims)
+            .filter_map(|p| mesh.intersect_primitive(p, o, d, 0.0, f32::INFINITY, |_| {}))
+            .min_by(|a, b| a.t.total_cmp(&b.t))
+    };
+    // Compute the shadow rays of a 128² image, each with the hit it leaves from.
+    let n = 128u32;
+    let shadow: Vec<(Vec3, OriginPrim)> = (0..n * n)
+        .filter_map(|i| {
+            let (x, y) = ((i % n) as f32 + 0.5, (i / n) as f32 + 0.5);
+            let d = Vec3::new(x / n as f32 - 0.5, 0.5 - y / n as f32, -1.0) * 0.9 - Vec3::new(0.1, 0.07, 0.0);
+            let h = nearest(eye, d)?;
+            Some((eye + d * h.t, OriginPrim { prim: h.prim, u: h.u, v: h.v }))
+        })
+        .collect();
+    let (mut lanes, mut hits) = (0usize, 0usize);
+    for block in shadow.chunks(LANES) {
+        let at = |i: usize| block[i.min(block.len() - 1)];
+        let rays = LaneRays {
+            org: std::array::from_fn(|k| std::array::from_fn(|i| at(i).0[k])),
+            dir: std::array::from_fn(|k| [light[k]; LANES]),
+            tmin: [0.0; LANES],
+            tmax: [f32::INFINITY; LANES],
+        };
+        let active = std::array::from_fn(|i| i < block.len());
+        let origin = std::array::from_fn(|i| Some(at(i).1));
+        for prim in 0..prims {
+            let got = mesh.intersect_lanes(prim, &rays, active, &origin);
+            for (i, &(o, from)) in block.iter().enumerate() {
+                let want =
+                    mesh.intersect_primitive_from(prim, Some(from), o, light, 0.0, f32::INFINITY, |_| {});
+                assert_eq!(got[i], want, "patch {prim}, ray from {o} (origin {from:?})");
+                (lanes, hits) = (lanes + 1, hits + want.is_some() as usize);
+            }
+        }
+    }
+    println!("{} shadow rays, {lanes} lane tests, {hits} hits", shadow.len());
+    assert!(shadow.len() > 5000 && hits > 1000, "{} rays, {hits} hits", shadow.len());
 }
 
 /// Whether the ray `org + t dir`, `t > 0`, enters the box `[lo, hi]` (a slab test).

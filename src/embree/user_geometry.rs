@@ -101,8 +101,8 @@ pub trait UserPrimitives: Send + Sync + 'static {
         self.intersect(prim, org, dir, tnear, tfar)
     }
 
-    /// [`UserPrimitives::intersect`] for every active lane of a packet meeting `prim`: lane
-    /// `i`'s nearest hit in `hits[i]` (inactive lanes are left as they are). The packet
+    /// [`UserPrimitives::intersect_from`] for every active lane of a packet meeting `prim`:
+    /// lane `i`'s nearest hit in `hits[i]` (inactive lanes are left as they are). The packet
     /// callbacks (`rtcIntersect4/8/16`, `rtcOccluded4/8/16`) call this once per primitive; the
     /// default tests lane by lane, and an implementation may test the lanes together, with the
     /// same answers.
@@ -110,7 +110,7 @@ pub trait UserPrimitives: Send + Sync + 'static {
     fn intersect_packet(&self, prim: u32, rays: &PacketRays, hits: &mut [Option<PrimHit>; MAX_PACKET]) {
         for lane in rays.active_lanes() {
             let (org, dir, tnear, tfar) = rays.ray(lane);
-            hits[lane] = self.intersect(prim, org, dir, tnear, tfar);
+            hits[lane] = self.intersect_from(prim, rays.origin[lane], org, dir, tnear, tfar);
         }
     }
 }
@@ -135,6 +135,9 @@ pub struct PacketRays {
     pub tnear: [f32; MAX_PACKET],
     /// The open intervals' upper ends.
     pub tfar: [f32; MAX_PACKET],
+    /// Where each lane's ray starts on this geometry, if known (occlusion rays of
+    /// [`Scene::occluded8_rays_from`]), as [`UserPrimitives::intersect_from`] takes it.
+    pub origin: [Option<OriginPrim>; MAX_PACKET],
 }
 
 impl PacketRays {
@@ -381,8 +384,7 @@ unsafe extern "C" fn intersect_callback<T: UserPrimitives>(args: *const sys::RTC
 /// rejection restores the lane's `tfar`, so its value read here holds. `origin(lane)` is where
 /// the lane's ray starts on this geometry, if known (occlusion rays of [`Scene::occluded1_from`]).
 /// One lane is tested alone; a packet's first candidates come from
-/// [`UserPrimitives::intersect_packet`], all its lanes at once, unless a lane knows its origin
-/// (then lane by lane through [`UserPrimitives::intersect_from`]).
+/// [`UserPrimitives::intersect_packet`], all its lanes (and their origins) at once.
 ///
 /// # Safety
 /// `ray` must be an RTCRayN (or the ray part of an RTCRayHitN) of width `valid.len()`.
@@ -406,22 +408,18 @@ unsafe fn for_each_candidate<T: UserPrimitives>(
         return;
     }
     // SAFETY: the layout is RTCRayN of width valid.len() (this function's contract).
-    let rays = unsafe { read_packet(ray, valid) };
-    let from: [Option<OriginPrim>; MAX_N] =
-        std::array::from_fn(|lane| if lane < rays.n && rays.active[lane] { origin(lane) } else { None });
-    let mut hits = [None; MAX_N];
-    if from.iter().all(Option::is_none) {
-        data.intersect_packet(prim, &rays, &mut hits);
-    } else {
-        for lane in rays.active_lanes() {
-            let (org, dir, tnear, tfar) = rays.ray(lane);
-            hits[lane] = data.intersect_from(prim, from[lane], org, dir, tnear, tfar);
+    let mut rays = unsafe { read_packet(ray, valid) };
+    for lane in 0..rays.n {
+        if rays.active[lane] {
+            rays.origin[lane] = origin(lane);
         }
     }
+    let mut hits = [None; MAX_N];
+    data.intersect_packet(prim, &rays, &mut hits);
     for lane in rays.active_lanes() {
         let (org, dir, tnear, tfar) = rays.ray(lane);
         let r = LaneRay { org, dir, tnear, tfar };
-        offer_candidates(data, prim, lane, from[lane], &r, hits[lane], &mut offer);
+        offer_candidates(data, prim, lane, rays.origin[lane], &r, hits[lane], &mut offer);
     }
 }
 
@@ -461,6 +459,7 @@ unsafe fn read_packet(ray: Soa, valid: &[i32]) -> PacketRays {
         dir: [[0.0; MAX_N]; 3],
         tnear: [0.0; MAX_N],
         tfar: [0.0; MAX_N],
+        origin: [None; MAX_N],
     };
     for (lane, _) in valid.iter().enumerate().take(n).filter(|(_, &v)| v == -1) {
         // SAFETY: lane < n and the layout is RTCRayN of width n (this function's contract).

@@ -559,15 +559,18 @@ impl PhongMesh {
         self.clusters.is_empty() && self.method == Method::Certified
     }
 
-    /// [`PhongMesh::intersect_primitive`] for the lanes of `rays` where `active`, all of them at
-    /// once (see [`certified_lanes`]) when [`PhongMesh::tests_lanes_together`], lane by lane
-    /// otherwise: the same answers either way. Lanes the lane kernel leaves unsure are solved
-    /// by the scalar path, the hull already passed.
+    /// [`PhongMesh::intersect_primitive_from`] for the lanes of `rays` where `active`, lane `i`
+    /// starting at `origin[i]` when given: all of them at once (see [`certified_lanes`]) when
+    /// [`PhongMesh::tests_lanes_together`], lane by lane otherwise, with the same answers
+    /// either way. Lanes the lane kernel leaves unsure are solved by the scalar path, the hull
+    /// already passed; a lane whose origin patch [`leaves_patch`] settles is no lane of the
+    /// kernel.
     pub fn intersect_lanes(
         &self,
         item: u32,
         rays: &LaneRays,
         active: [bool; LANES],
+        origin: &[Option<OriginPrim>; LANES],
     ) -> [Option<PrimHit>; LANES] {
         let mut hits = [None; LANES];
         let ray = |i: usize| {
@@ -577,13 +580,25 @@ impl PhongMesh {
         if !self.tests_lanes_together() {
             for i in (0..LANES).filter(|&i| active[i]) {
                 let (o, d) = ray(i);
-                hits[i] = self.intersect_primitive(item, o, d, rays.tmin[i], rays.tmax[i], |_| {});
+                hits[i] =
+                    self.intersect_primitive_from(item, origin[i], o, d, rays.tmin[i], rays.tmax[i], |_| {});
             }
             return hits;
         }
         let Some(p) = self.patches.get(item as usize) else { return hits };
-        let answers = certified_lanes(p, rays);
-        for i in (0..LANES).filter(|&i| active[i]) {
+        // Compute the lanes to test: active, and not settled by their origin (a zero direction
+        // turns a lane away as bad input inside the kernel).
+        let mut block = *rays;
+        let live: [bool; LANES] = std::array::from_fn(|i| {
+            let (o, d) = ray(i);
+            active[i]
+                && !self.leaves_origin(item, origin[i], V3::from(o), V3::from(d), rays.tmin[i], rays.tmax[i])
+        });
+        for i in (0..LANES).filter(|&i| !live[i]) {
+            (block.dir[0][i], block.dir[1][i], block.dir[2][i]) = (0.0, 0.0, 0.0);
+        }
+        let answers = certified_lanes(p, &block);
+        for i in (0..LANES).filter(|&i| live[i]) {
             let hit = match answers.decision[i] {
                 LaneDecision::Miss => None,
                 LaneDecision::Hit => answers.hit(i),
