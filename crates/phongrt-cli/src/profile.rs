@@ -446,38 +446,70 @@ impl UserPrimitives for LaneByLane {
     fn intersect(&self, prim: u32, org: Vec3, dir: Vec3, tnear: f32, tfar: f32) -> Option<PrimHit> {
         self.0.intersect(prim, org, dir, tnear, tfar)
     }
+
+    #[inline]
+    fn intersect_from(
+        &self,
+        prim: u32,
+        origin: Option<OriginPrim>,
+        org: Vec3,
+        dir: Vec3,
+        tnear: f32,
+        tfar: f32,
+    ) -> Option<PrimHit> {
+        self.0.intersect_from(prim, origin, org, dir, tnear, tfar)
+    }
 }
 
 /// The rays of `kind` per pixel of the bench's `size`² image, row-major (`None`: a pixel with
-/// no shadow ray).
-fn pixel_rays(scenes: &Scenes, primary: Vec<Ray>, light: Vec3, kind: RayKind) -> Vec<Option<Ray>> {
+/// no shadow ray), each shadow ray with the hit it starts from.
+fn pixel_rays(scenes: &Scenes, primary: Vec<Ray>, light: Vec3, kind: RayKind) -> Vec<Option<Traced>> {
     match kind {
-        RayKind::Primary => primary.into_iter().map(Some).collect(),
+        RayKind::Primary => primary.into_iter().map(|r| Some((r, None))).collect(),
         RayKind::Shadow => primary
             .iter()
-            .map(|r| shadow_ray(r, &scenes.direct.intersect1(*r)?, light).map(|(s, _)| s))
+            .map(|r| {
+                let h = scenes.direct.intersect1(*r)?;
+                shadow_ray(r, &h, light).map(|(s, _)| (s, Some(RayOrigin::of_hit(&h))))
+            })
             .collect(),
     }
 }
 
-/// Trace `rays` (one per pixel of a `size`² image, row-major) of `kind` through `scene` in
-/// coherent 8-ray packets from 4x2 pixel blocks, the pixels without a ray inactive.
-fn trace_packets(scene: &Scene, rays: &[Option<Ray>], size: u32, kind: RayKind) {
+/// One 8-ray packet: the rays, where each starts (shadow rays) and the active lanes.
+type Packet = ([Ray; PACKET8], [Option<RayOrigin>; PACKET8], u8);
+
+/// `rays` (one per pixel of a `size`² image, row-major) as the renderer's coherent 8-ray
+/// packets from 4x2 pixel blocks, the pixels without a ray inactive; shadow rays with their
+/// origins, as the renderer traces them.
+fn packets_of(rays: &[Option<Traced>], size: u32) -> Vec<Packet> {
     let at = |x: u32, y: u32| if x < size && y < size { rays[(y * size + x) as usize] } else { None };
+    let mut packets = Vec::new();
     for by in (0..size).step_by(2) {
         for bx in (0..size).step_by(4) {
-            let lane: [Option<Ray>; PACKET8] =
+            let lane: [Option<Traced>; PACKET8] =
                 std::array::from_fn(|k| at(bx + k as u32 % 4, by + k as u32 / 4));
             let active = lane.iter().enumerate().fold(0u8, |m, (k, r)| m | ((r.is_some() as u8) << k));
-            let Some(any) = lane.iter().flatten().next().copied() else { continue };
-            let packet = lane.map(|r| r.unwrap_or(any));
-            match kind {
-                RayKind::Primary => {
-                    std::hint::black_box(scene.intersect8_rays(&packet, active, true));
-                }
-                RayKind::Shadow => {
-                    std::hint::black_box(scene.occluded8_rays(&packet, active, true));
-                }
+            let Some((any, _)) = lane.iter().flatten().next().copied() else { continue };
+            packets.push((
+                lane.map(|r| r.map_or(any, |(r, _)| r)),
+                lane.map(|r| r.and_then(|(_, o)| o)),
+                active,
+            ));
+        }
+    }
+    packets
+}
+
+/// Trace `packets` of `kind` through `scene`.
+fn trace_packets(scene: &Scene, packets: &[Packet], kind: RayKind) {
+    for (rays, origins, active) in packets {
+        match kind {
+            RayKind::Primary => {
+                std::hint::black_box(scene.intersect8_rays(rays, *active, true));
+            }
+            RayKind::Shadow => {
+                std::hint::black_box(scene.occluded8_rays_from(rays, origins, *active, true));
             }
         }
     }
@@ -533,7 +565,7 @@ pub fn count_work(
     };
     if let Some(scene) = packets {
         let rays = pixel_rays(&scenes, primary_for_packets, light, kind);
-        counted_packets(scene, &rays, size, kind);
+        counted_packets(scene, &packets_of(&rays, size), kind);
         return Ok(rays.iter().flatten().count());
     }
     let scene = if what == Counted::Flat { &scenes.flat } else { &scenes.direct };
@@ -552,8 +584,8 @@ fn lane_by_lane_scene(device: &Device, mesh: &Arc<PhongMesh>) -> Result<Scene, B
 /// The counted work of [`count_work`] for packets. Never inlined (callgrind's
 /// `--toggle-collect=*counted_packets*`).
 #[inline(never)]
-fn counted_packets(scene: &Scene, rays: &[Option<Ray>], size: u32, kind: RayKind) {
-    trace_packets(scene, rays, size, kind);
+fn counted_packets(scene: &Scene, packets: &[Packet], kind: RayKind) {
+    trace_packets(scene, packets, kind);
 }
 
 /// The counted work of [`count_work`]: `rays` through `scene`, or the `solves` on `mesh` when
