@@ -11,7 +11,10 @@ pub use scene::{
 };
 mod panic;
 pub mod user_geometry;
-pub use user_geometry::{OriginPrim, PrimHit, RayOrigin, UserGeometryOptions, UserPrimitives, UserTriangles};
+pub use user_geometry::{
+    OriginPrim, PacketRays, PrimHit, RayOrigin, UserGeometryOptions, UserPrimitives, UserTriangles,
+    MAX_PACKET,
+};
 #[cfg(feature = "capi")]
 pub mod capi;
 pub mod phong_geometry;
