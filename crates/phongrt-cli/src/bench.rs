@@ -904,23 +904,25 @@ fn decades(lo: f64, hi: f64) -> std::ops::Range<f64> {
     10f64.powf(a)..10f64.powf(b.max(a + 1.0))
 }
 
-/// The colour of series `i`: a qualitative palette (Tableau 10 and two more), cycled.
-fn series_colour(i: usize) -> plotters::style::RGBColor {
-    const COLOURS: [(u8, u8, u8); 12] = [
-        (31, 119, 180),
-        (255, 127, 14),
-        (44, 160, 44),
-        (214, 39, 40),
-        (148, 103, 189),
-        (140, 86, 75),
-        (227, 119, 194),
-        (127, 127, 127),
-        (188, 189, 34),
-        (23, 190, 207),
-        (0, 0, 0),
-        (255, 215, 0),
-    ];
-    let (r, g, b) = COLOURS[i % COLOURS.len()];
+/// The colour of `m` in every plot and panel: the pre-tessellation levels a ramp from light to
+/// dark blue (finer is darker), every other method its own hue.
+fn series_colour(m: BenchMethod) -> plotters::style::RGBColor {
+    let (r, g, b) = match m {
+        BenchMethod::Flat => (0, 0, 0),
+        BenchMethod::Pretessellated(l) => {
+            // Compute the level's place on the ramp: 1 -> 0, 64 and beyond -> 1.
+            let f = (l.max(1) as f64).log2().min(6.0) / 6.0;
+            let lerp = |a: f64, b: f64| (a + (b - a) * f) as u8;
+            (lerp(158.0, 8.0), lerp(202.0, 48.0), lerp(225.0, 107.0))
+        }
+        BenchMethod::DirectF32 => (214, 39, 40),
+        BenchMethod::DirectF32Clustered => (255, 127, 14),
+        BenchMethod::AnalyticF32 => (148, 103, 189),
+        BenchMethod::DirectF64 => (140, 86, 75),
+        BenchMethod::NewtonF32 => (227, 119, 194),
+        BenchMethod::UserFloor => (127, 127, 127),
+        BenchMethod::Subdivision => (44, 160, 44),
+    };
     plotters::style::RGBColor(r, g, b)
 }
 
@@ -974,8 +976,8 @@ pub fn plot(rows: &[BenchRow]) -> Result<image::RgbImage, PlotError> {
                 .label_style(("sans-serif", 13))
                 .draw()
                 .map_err(plot_error)?;
-            for (i, (row, p)) in rs.iter().zip(&pts).enumerate() {
-                let c = series_colour(i);
+            for (row, p) in rs.iter().zip(&pts) {
+                let c = series_colour(row.method);
                 let marker = if row.method.is_direct() { 6 } else { 4 };
                 chart
                     .draw_series(std::iter::once(Circle::new(*p, marker, c.filled())))
@@ -1070,8 +1072,8 @@ fn scaling_panel(
         .label_style(("sans-serif", 13))
         .draw()
         .map_err(plot_error)?;
-    for (mi, m) in methods.iter().enumerate() {
-        let c = series_colour(mi);
+    for m in methods.iter() {
+        let c = series_colour(*m);
         let mut series: Vec<(f64, f64)> =
             rows.iter().zip(&pts).filter(|(r, _)| r.method == *m).map(|(_, p)| *p).collect();
         series.sort_by(|a, b| a.0.total_cmp(&b.0));
