@@ -177,3 +177,19 @@ fn scene_new_with_callers_pending_device_error_succeeds_and_leaves_it() {
     let hit = scene.intersect1(Ray::new(Vec3::new(0.25, 0.25, 1.0), -Vec3::Z)).unwrap();
     assert_eq!((hit.geom_id, hit.t), (0, 1.0));
 }
+
+/// Half the smallest normal f32, computed at run time on the calling thread.
+#[cfg(target_arch = "x86_64")]
+fn half_min_positive_at_run_time() -> f32 {
+    std::hint::black_box(f32::MIN_POSITIVE) * std::hint::black_box(0.5)
+}
+
+#[test]
+#[cfg(target_arch = "x86_64")]
+fn thread_pool_builder_threads_flush_denormals_and_others_do_not() {
+    let pool = phongrt::embree::thread_pool_builder().num_threads(2).build().unwrap();
+    let on_pool = pool.broadcast(|_| half_min_positive_at_run_time());
+    assert_eq!(on_pool, vec![0.0, 0.0], "every pool thread flushes the subnormal result to zero");
+    let plain = std::thread::spawn(half_min_positive_at_run_time).join().unwrap();
+    assert!(plain > 0.0 && plain.is_subnormal(), "a thread of its own keeps IEEE subnormals: {plain}");
+}

@@ -316,21 +316,54 @@ pub fn header_version() -> &'static str {
     std::str::from_utf8(&sys::RTC_VERSION_STRING[..sys::RTC_VERSION_STRING.len() - 1]).unwrap_or("?")
 }
 
-/// Set flush-to-zero and denormals-are-zero on the calling thread, as Embree recommends for
-/// every thread that traces rays (denormals slow traversal down severely).
-pub fn set_flush_denormals() {
+/// Set flush-to-zero (FTZ) and denormals-are-zero (DAZ) in the calling thread's MXCSR, as
+/// Embree's "CPU Performance Recommendations" ask: "It is strongly recommended to have the
+/// `Flush to Zero` and `Denormals are Zero` mode of the MXCSR control and status register
+/// enabled for each thread before calling the `rtcIntersect`-type and `rtcOccluded`-type
+/// functions" (denormals can slow traversal down severely). A no-op off x86_64.
+///
+/// Prefer [`thread_pool_builder`], which sets the mode on every thread of a rayon pool.
+///
+/// # Safety
+/// Rust's documentation of `_mm_setcsr` calls setting these flags immediate undefined
+/// behaviour: the compiler assumes IEEE subnormal arithmetic, so an operation it folds at
+/// compile time and the same operation at run time can disagree once the thread flushes
+/// subnormals to zero. The caller must make sure that nothing run on this thread afterwards
+/// depends for its soundness on subnormal results: no float result may decide an unchecked
+/// memory access or another `unsafe` precondition. What can change is a float value near zero,
+/// which is what the caller opts into.
+pub unsafe fn set_flush_denormals() {
     #[cfg(target_arch = "x86_64")]
     {
         #[allow(deprecated)]
         use std::arch::x86_64::{_mm_getcsr, _mm_setcsr};
         const FTZ: u32 = 1 << 15;
         const DAZ: u32 = 1 << 6;
-        // SAFETY: reading and writing MXCSR is always valid on x86_64 (SSE2 is baseline); setting
-        // FTZ/DAZ only changes denormal handling of this thread, which is what Embree asks for
-        // ("Embree FAQ: set the FTZ and DAZ flags ... on every thread").
+        // SAFETY: MXCSR exists on every x86_64 CPU (SSE2 is baseline) and only this thread's
+        // copy is written; the compiler's assumption of IEEE subnormals is this function's
+        // contract, passed to the caller.
         #[allow(deprecated)]
         unsafe {
             _mm_setcsr(_mm_getcsr() | FTZ | DAZ)
         };
     }
+}
+
+/// A rayon thread pool builder whose threads set flush-to-zero and denormals-are-zero (see
+/// [`set_flush_denormals`]) before they run anything: the one way phongrt's renderer, bench and
+/// command line run every thread that traces rays in the float mode Embree recommends.
+///
+/// Closures run on the pool see subnormal inputs and results of `f32`/`f64` SSE arithmetic
+/// as zero. The caller may set the number of threads, names and the rest on the builder; a
+/// `start_handler` set afterwards replaces the one that sets the mode.
+pub fn thread_pool_builder() -> rayon::ThreadPoolBuilder {
+    rayon::ThreadPoolBuilder::new().start_handler(|_| {
+        // SAFETY: `set_flush_denormals`' contract: the code phongrt runs on these threads (the
+        // ray queries, the user-geometry callbacks, the Phong and shading math) uses float
+        // results only as values, never to decide an unchecked memory access (slices are read
+        // with bounds checks or `get`, float-to-index conversions saturate), so flushed
+        // subnormals change values, not soundness. The flag is documented on this builder
+        // for the closures callers run on its pool.
+        unsafe { set_flush_denormals() }
+    })
 }

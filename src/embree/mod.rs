@@ -4,7 +4,8 @@ pub mod device;
 pub mod scene;
 
 pub use device::{
-    header_version, set_flush_denormals, Device, EmbreeError, ErrorCode, MAX_INSTANCE_LEVEL_COUNT,
+    header_version, set_flush_denormals, thread_pool_builder, Device, EmbreeError, ErrorCode,
+    MAX_INSTANCE_LEVEL_COUNT,
 };
 pub use scene::{
     new_query_context, GeometryOptions, Hit, IntersectArgs, OccludedArgs, QueryContext, Ray, Scene, PACKET8,
