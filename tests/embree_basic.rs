@@ -193,3 +193,57 @@ fn thread_pool_builder_threads_flush_denormals_and_others_do_not() {
     let plain = std::thread::spawn(half_min_positive_at_run_time).join().unwrap();
     assert!(plain > 0.0 && plain.is_subnormal(), "a thread of its own keeps IEEE subnormals: {plain}");
 }
+
+/// Leave an error pending on the calling thread through the raw API, as a caller's own
+/// Embree code can: a build quality scenes do not take (refit is for geometries).
+fn leave_a_raw_error_pending(device: &Device) -> Scene {
+    let other = Scene::new(device).unwrap();
+    // SAFETY (test): `other` is a live scene; the call only records an error on the device.
+    unsafe {
+        phongrt::sys::rtcSetSceneBuildQuality(
+            other.raw(),
+            phongrt::sys::RTCBuildQuality::RTC_BUILD_QUALITY_REFIT,
+        )
+    };
+    other
+}
+
+#[test]
+fn attach_and_commit_after_callers_pending_error_succeed_and_leave_it() {
+    let device = Device::new().unwrap();
+    let _other = leave_a_raw_error_pending(&device);
+    let scene = unit_triangle_scene(&device, u32::MAX);
+    let hit = scene.intersect1(Ray::new(Vec3::new(0.25, 0.25, 1.0), -Vec3::Z)).unwrap();
+    assert_eq!((hit.geom_id, hit.t), (0, 1.0));
+    let err = device.check().expect_err("the caller's pending error is still theirs to read");
+    assert!(err.to_string().contains("invalid build quality"), "{err}");
+    device.check().expect("read once");
+}
+
+#[test]
+fn another_threads_pending_error_is_not_reported_on_this_one() {
+    let device = Device::new().unwrap();
+    let d = device.clone();
+    std::thread::spawn(move || drop(leave_a_raw_error_pending(&d))).join().unwrap();
+    let scene = unit_triangle_scene(&device, u32::MAX);
+    assert!(scene.intersect1(Ray::new(Vec3::new(0.25, 0.25, 1.0), -Vec3::Z)).is_some());
+    device.check().expect("no error of this thread's calls");
+}
+
+#[test]
+fn scenes_built_on_many_threads_of_one_device_all_trace() {
+    let device = Device::new().unwrap();
+    let hits: Vec<bool> = std::thread::scope(|s| {
+        let threads: Vec<_> = (0..8)
+            .map(|_| {
+                s.spawn(|| {
+                    let scene = unit_triangle_scene(&device, u32::MAX);
+                    scene.intersect1(Ray::new(Vec3::new(0.25, 0.25, 1.0), -Vec3::Z)).is_some()
+                })
+            })
+            .collect();
+        threads.into_iter().map(|t| t.join().unwrap()).collect()
+    });
+    assert_eq!(hits, vec![true; 8]);
+    device.check().unwrap();
+}

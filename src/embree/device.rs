@@ -2,7 +2,8 @@
 
 use std::ffi::{c_char, c_void, CStr, CString};
 use std::sync::atomic::{AtomicI64, Ordering};
-use std::sync::{Arc, Mutex};
+use std::sync::{Arc, Mutex, MutexGuard};
+use std::thread::ThreadId;
 
 use crate::sys;
 
@@ -132,12 +133,17 @@ impl EmbreeError {
     }
 }
 
+/// An error code and Embree's message for it.
+type Pending = (sys::RTCError, String);
+
 /// What the error and memory-monitor callbacks write into; owned by the device handle, so
 /// it outlives every callback Embree can make on that device.
 #[derive(Default)]
 struct DeviceState {
-    /// The first error message since the last [`Device::check`].
-    last_error: Mutex<Option<(sys::RTCError, String)>>,
+    /// Per thread, the first error message since that thread's last [`Device::check`]: Embree
+    /// keeps its error codes per thread too ("Each thread has its own error code per device",
+    /// rtcGetDeviceError docs), and calls the error function on the thread whose call failed.
+    last_error: Mutex<Vec<(ThreadId, Pending)>>,
     /// Bytes Embree reports as allocated (memory monitor callback).
     bytes: AtomicI64,
     peak: AtomicI64,
@@ -146,10 +152,18 @@ struct DeviceState {
 struct DeviceHandle {
     raw: sys::RTCDevice,
     state: Box<DeviceState>,
+    /// Held for every call that accesses the device object (see the `Sync` impl).
+    calls: Mutex<()>,
 }
 
-// SAFETY: Embree devices are thread-safe objects ("all API calls of a device are thread safe
-// unless stated otherwise", Embree API docs, rtcNewDevice); the state is Sync itself.
+// SAFETY: Embree's docs (Introduction): "In general, API calls that access the same object are
+// not thread-safe, unless specified otherwise. However, attaching geometries to the same scene
+// and performing ray queries in a scene is thread-safe." So every call this crate makes on the
+// device object (rtcNewScene, rtcNewGeometry, rtcNewBuffer, rtcGetDeviceProperty,
+// rtcGetDeviceError) holds `calls` ([`Device::lock`]): two threads never access the device at
+// once. Creation and release (rtcSetDevice*Function, rtcReleaseDevice) happen while one handle
+// owns it. Scene-level calls access their scene, which `&mut Scene` makes exclusive, and ray
+// queries run on committed scenes, the case Embree allows. The state is Sync itself.
 unsafe impl Send for DeviceHandle {}
 // SAFETY: see Send.
 unsafe impl Sync for DeviceHandle {}
@@ -162,7 +176,9 @@ impl Drop for DeviceHandle {
     }
 }
 
-/// An Embree device. Cheap to clone (shared handle).
+/// An Embree device. Cheap to clone (shared handle), `Send` and `Sync`: every call that
+/// accesses the device object takes the device's lock, as Embree requires ("API calls that
+/// access the same object are not thread-safe, unless specified otherwise").
 #[derive(Clone)]
 pub struct Device {
     inner: Arc<DeviceHandle>,
@@ -181,10 +197,11 @@ unsafe extern "C" fn error_callback(user: *mut c_void, code: sys::RTCError, msg:
         // SAFETY: `user` is the `DeviceState` we registered; it lives in a Box owned by the
         // device handle, which outlives the device's callbacks (released in Drop after use).
         let state = unsafe { &*(user as *const DeviceState) };
-        if let Ok(mut slot) = state.last_error.lock() {
-            if slot.is_none() {
-                *slot = Some((code, message));
-            }
+        // Embree calls this on the thread whose call failed: keep that thread's first error.
+        let id = std::thread::current().id();
+        let mut slot = state.last_error.lock().unwrap_or_else(|e| e.into_inner());
+        if !slot.iter().any(|(t, _)| *t == id) {
+            slot.push((id, (code, message)));
         }
     });
 }
@@ -225,27 +242,69 @@ impl Device {
             sys::rtcSetDeviceErrorFunction(raw, Some(error_callback), user);
             sys::rtcSetDeviceMemoryMonitorFunction(raw, Some(memory_callback), user);
         }
-        Ok(Device { inner: Arc::new(DeviceHandle { raw, state }) })
+        Ok(Device { inner: Arc::new(DeviceHandle { raw, state, calls: Mutex::new(()) }) })
     }
 
     pub(crate) fn raw(&self) -> sys::RTCDevice {
         self.inner.raw
     }
 
-    /// Turn a pending Embree error (if any) into `Err`.
-    pub fn check(&self) -> Result<(), EmbreeError> {
-        // SAFETY: the device is live for as long as `self` is.
-        let code = unsafe { sys::rtcGetDeviceError(self.raw()) };
-        let stored = self.inner.state.last_error.lock().ok().and_then(|mut s| s.take());
-        if code == sys::RTCError::RTC_ERROR_NONE && stored.is_none() {
-            return Ok(());
+    /// The lock every call that accesses the device object holds (Embree: "API calls that
+    /// access the same object are not thread-safe, unless specified otherwise").
+    pub(crate) fn lock(&self) -> MutexGuard<'_, ()> {
+        self.inner.calls.lock().unwrap_or_else(|e| e.into_inner())
+    }
+
+    /// This thread's pending error (Embree's code and the message its error function gave),
+    /// clearing it; other threads' errors stay theirs.
+    fn take_error(&self) -> Option<Pending> {
+        let code = {
+            let _device = self.lock();
+            // SAFETY: the device is live for as long as `self` is; the lock serialises the
+            // access; the code read is this thread's (rtcGetDeviceError docs).
+            unsafe { sys::rtcGetDeviceError(self.raw()) }
+        };
+        let id = std::thread::current().id();
+        let mut slot = self.inner.state.last_error.lock().unwrap_or_else(|e| e.into_inner());
+        let stored = slot.iter().position(|(t, _)| *t == id).map(|k| slot.swap_remove(k).1);
+        match (code, stored) {
+            (sys::RTCError::RTC_ERROR_NONE, None) => None,
+            (code, None) => Some((code, String::new())),
+            (_, Some(stored)) => Some(stored),
         }
-        let (code, message) = stored.unwrap_or((code, String::new()));
-        Err(EmbreeError::from_code(code, message))
+    }
+
+    /// Turn an Embree error pending on this thread (if any) into `Err`. Errors of calls made
+    /// on other threads are theirs: they are not reported here.
+    pub fn check(&self) -> Result<(), EmbreeError> {
+        match self.take_error() {
+            None => Ok(()),
+            Some((code, message)) => Err(EmbreeError::from_code(code, message)),
+        }
+    }
+
+    /// Run `f`, Embree calls whose return values cannot say they failed (functions returning
+    /// `void`), and blame on it exactly the error they recorded on this thread: an error left
+    /// pending before by the caller's own raw calls is not reported, and stays pending for
+    /// the caller's own [`Device::check`].
+    pub(crate) fn call<R>(&self, f: impl FnOnce() -> R) -> Result<R, EmbreeError> {
+        let earlier = self.take_error();
+        let r = f();
+        let error = self.take_error();
+        if let Some(earlier) = earlier {
+            let id = std::thread::current().id();
+            self.inner.state.last_error.lock().unwrap_or_else(|e| e.into_inner()).push((id, earlier));
+        }
+        match error {
+            None => Ok(r),
+            Some((code, message)) => Err(EmbreeError::from_code(code, message)),
+        }
     }
 
     fn property(&self, p: sys::RTCDeviceProperty) -> isize {
-        // SAFETY: the device is live; reading a property has no other precondition.
+        let _device = self.lock();
+        // SAFETY: the device is live; the lock serialises the access; reading a property has
+        // no other precondition (rtcGetDeviceProperty docs).
         unsafe { sys::rtcGetDeviceProperty(self.raw(), p) }
     }
 

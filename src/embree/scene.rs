@@ -333,14 +333,18 @@ fn new_buffer_from<T: Copy>(device: &Device, items: &[T]) -> Result<OwnedBuffer,
     // SAFETY: the device is live (held by `device`); rtcNewBuffer allocates `bytes + 16` bytes
     // that rtcGetBufferData exposes for writing (rtcNewBuffer docs); we copy exactly `bytes`
     // from a valid slice of plain `Copy` data (Vec3 and [u32; 3] are 12 bytes without padding).
+    // rtcNewBuffer returns null exactly when it fails: the device's error is read only then.
+    // The device's lock is held for the call that accesses it.
     unsafe {
-        let buf = sys::rtcNewBuffer(device.raw(), bytes + 16);
+        let buf = {
+            let _device = device.lock();
+            sys::rtcNewBuffer(device.raw(), bytes + 16)
+        };
         if buf.is_null() {
             device.check()?;
             return Err(EmbreeError::Null("buffer"));
         }
         let buf = OwnedBuffer(buf);
-        device.check()?;
         let ptr = sys::rtcGetBufferData(buf.raw()) as *mut u8;
         std::ptr::copy_nonoverlapping(items.as_ptr() as *const u8, ptr, bytes);
         Ok(buf)
@@ -353,17 +357,24 @@ fn new_geometry(
     kind: sys::RTCGeometryType,
     what: &'static str,
 ) -> Result<OwnedGeometry, EmbreeError> {
-    // SAFETY: the device is live (held by `device`); rtcNewGeometry returns a geometry with one
-    // reference, or null with the error recorded on the device.
-    let geom = unsafe { sys::rtcNewGeometry(device.raw(), kind) };
+    let geom = {
+        let _device = device.lock();
+        // SAFETY: the device is live (held by `device`) and locked for the call; rtcNewGeometry
+        // returns a geometry with one reference, or null with the error recorded on the device.
+        unsafe { sys::rtcNewGeometry(device.raw(), kind) }
+    };
     OwnedGeometry::new(device, geom, what)
 }
 
 impl Scene {
     /// An empty scene on `device`.
     pub fn new(device: &Device) -> Result<Self, EmbreeError> {
-        // SAFETY: the device is live (held by `device`, and by the scene handle from now on).
-        let raw = unsafe { sys::rtcNewScene(device.raw()) };
+        let raw = {
+            let _device = device.lock();
+            // SAFETY: the device is live (held by `device`, and by the scene handle from now
+            // on) and locked for the call.
+            unsafe { sys::rtcNewScene(device.raw()) }
+        };
         // rtcNewScene returns null exactly when it fails: the device's error is read only then
         // (an error left pending by the caller's raw calls is theirs); a scene is owned at once.
         if raw.is_null() {
@@ -381,12 +392,11 @@ impl Scene {
         let raw = self.handle_mut()?.raw;
         let bit = sys::RTCSceneFlags::RTC_SCENE_FLAG_ROBUST.0;
         // SAFETY: `raw` is a live scene (held by `self`); rtcGetSceneFlags/rtcSetSceneFlags only
-        // read and set its flags, recording any error on the device, which is checked below.
-        unsafe {
+        // read and set its flags, recording any error on the device, which `call` reads.
+        self.device().call(|| unsafe {
             let flags = sys::rtcGetSceneFlags(raw).0;
             sys::rtcSetSceneFlags(raw, sys::RTCSceneFlags(if robust { flags | bit } else { flags & !bit }));
-        }
-        self.device().check()
+        })
     }
 
     /// Whether robust mode is set (see [`Scene::set_robust`]).
@@ -464,7 +474,8 @@ impl Scene {
         // SAFETY: the geometry and both buffers are live; the buffers hold the stated item
         // counts (12-byte items) and are bound before the geometry is committed; the geometry
         // retains them, so our references drop at the end of this function (rtcSetGeometryBuffer docs).
-        unsafe {
+        // These calls return nothing: `call` reads the errors they record.
+        device.call(|| unsafe {
             sys::rtcSetGeometryBuffer(
                 geom.raw(),
                 sys::RTCBufferType::RTC_BUFFER_TYPE_VERTEX,
@@ -487,8 +498,7 @@ impl Scene {
             );
             sys::rtcSetGeometryMask(geom.raw(), options.mask);
             sys::rtcCommitGeometry(geom.raw());
-        }
-        device.check()?;
+        })?;
         self.attach_raw(geom)
     }
 
@@ -523,7 +533,7 @@ impl Scene {
         // SAFETY: as in `attach_triangles`; the face buffer holds one u32 (3) per face and the
         // index buffer one u32 per corner, as RTC_GEOMETRY_TYPE_SUBDIVISION requires
         // (rtcNewGeometry docs, "Subdivision geometry").
-        unsafe {
+        device.call(|| unsafe {
             sys::rtcSetGeometryBuffer(
                 geom.raw(),
                 sys::RTCBufferType::RTC_BUFFER_TYPE_VERTEX,
@@ -556,8 +566,7 @@ impl Scene {
             );
             sys::rtcSetGeometryTessellationRate(geom.raw(), tessellation_rate);
             sys::rtcCommitGeometry(geom.raw());
-        }
-        device.check()?;
+        })?;
         self.attach_raw(geom)
     }
 
@@ -574,7 +583,7 @@ impl Scene {
         // SAFETY: `child.raw()` is a live committed scene; we keep a reference to its handle
         // below so it outlives this scene. The transform is 16 floats in column-major order,
         // matching RTC_FORMAT_FLOAT4X4_COLUMN_MAJOR, and Embree copies it (rtcSetGeometryTransform docs).
-        unsafe {
+        device.call(|| unsafe {
             sys::rtcSetGeometryInstancedScene(geom.raw(), child.raw());
             sys::rtcSetGeometryTransform(
                 geom.raw(),
@@ -584,8 +593,7 @@ impl Scene {
             );
             sys::rtcSetGeometryMask(geom.raw(), mask);
             sys::rtcCommitGeometry(geom.raw());
-        }
-        device.check()?;
+        })?;
         self.keep_alive(Box::new(child.inner.clone()))?;
         self.attach_raw(geom)
     }
@@ -600,8 +608,8 @@ impl Scene {
         // SAFETY: the scene is live, and no other thread can be tracing it: we hold `&mut self`
         // and the only reference to the handle (no scene instances it), and rtcCommitScene
         // must not run concurrently with queries on the scene (rtcCommitScene docs).
-        unsafe { sys::rtcCommitScene(raw) };
-        self.device().check()?;
+        // rtcCommitScene returns nothing: `call` reads the error it records.
+        self.device().call(|| unsafe { sys::rtcCommitScene(raw) })?;
         // Any panic recorded since the last commit: this commit's bounds callbacks, or ray
         // callbacks under the caller's own Embree calls (taking it clears it).
         for (geom_id, record) in &self.inner.panics {

@@ -668,11 +668,18 @@ impl Scene {
         let device = self.device().clone();
         // Hand the box to the scene first: its heap address stays put when the box moves.
         self.keep_alive(boxed)?;
-        // SAFETY: the device is live; `ptr` points into the box the scene now owns, released
-        // only after the scene (and so the geometry) is (SceneHandle field order).
-        let raw = unsafe { new_user_geometry(device.raw(), ptr, options) };
-        let geom = OwnedGeometry::new(&device, raw, "user geometry")?;
-        device.check()?;
+        // The geometry's setters return nothing: `call` reads the errors they record, and a
+        // geometry made before one failed is released with the `OwnedGeometry`.
+        let geom = device.call(|| {
+            let raw = {
+                let _device = device.lock();
+                // SAFETY: the device is live and locked; `ptr` points into the box the scene now
+                // owns, released only after the scene (and so the geometry) is (SceneHandle
+                // field order).
+                unsafe { new_user_geometry(device.raw(), ptr, options) }
+            };
+            OwnedGeometry::new(&device, raw, "user geometry")
+        })??;
         let id = self.attach_raw(geom)?;
         self.watch_panics(id, record)?;
         Ok(id)
