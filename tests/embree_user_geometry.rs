@@ -526,3 +526,39 @@ fn a_cluster_size_outside_1_to_8_is_refused() {
         assert_eq!(e.to_string(), format!("cluster size {k} is not in 1..=8"));
     }
 }
+
+/// A unit triangle in z = 0 (as user geometry) whose test answers a fixed `t`, wherever the
+/// ray really meets it: a broken implementation.
+struct FixedT(f32);
+
+impl UserPrimitives for FixedT {
+    fn count(&self) -> u32 {
+        1
+    }
+
+    fn bounds(&self, _prim: u32) -> Option<(Vec3, Vec3)> {
+        Some((Vec3::ZERO, Vec3::new(1.0, 1.0, 0.0)))
+    }
+
+    fn intersect(&self, prim: u32, _org: Vec3, _dir: Vec3, _tnear: f32, _tfar: f32) -> Option<PrimHit> {
+        Some(PrimHit { t: self.0, u: 0.25, v: 0.25, ng: Vec3::Z, prim })
+    }
+}
+
+#[test]
+fn a_user_hit_outside_the_ray_interval_is_refused_and_counted() {
+    let device = Device::new().unwrap();
+    let ray = Ray::new(Vec3::new(0.25, 0.25, 1.0), -Vec3::Z).with_range(0.5, 2.0);
+    for (t, hit) in [(1.0, true), (0.25, false), (0.5, false), (2.0, false), (-1.0, false), (f32::NAN, false)]
+    {
+        let mut scene = Scene::new(&device).unwrap();
+        scene.attach_user(FixedT(t), UserGeometryOptions::default()).unwrap();
+        scene.commit().unwrap();
+        let before = phongrt::embree::user_hits_out_of_range();
+        assert_eq!(scene.intersect1(ray).map(|h| h.t), hit.then_some(t), "t = {t}");
+        assert_eq!(scene.occluded1(ray), hit, "t = {t}");
+        // One refusal per query that saw the bad t (no other test here makes bad hits).
+        let refused = phongrt::embree::user_hits_out_of_range() - before;
+        assert_eq!(refused, if hit { 0 } else { 2 }, "t = {t}");
+    }
+}

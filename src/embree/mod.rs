@@ -12,7 +12,10 @@ pub use scene::{
 };
 mod panic;
 pub mod user_geometry;
-pub use user_geometry::{OriginPrim, PrimHit, RayOrigin, UserGeometryOptions, UserPrimitives, UserTriangles};
+pub use user_geometry::{
+    user_hits_out_of_range, OriginPrim, PrimHit, RayOrigin, UserGeometryOptions, UserPrimitives,
+    UserTriangles,
+};
 #[cfg(feature = "capi")]
 pub mod capi;
 pub mod phong_geometry;

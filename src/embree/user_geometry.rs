@@ -10,6 +10,7 @@
 
 use std::cell::Cell;
 use std::ffi::c_void;
+use std::sync::atomic::{AtomicU64, Ordering};
 use std::sync::Arc;
 
 use glam::Vec3;
@@ -253,6 +254,17 @@ unsafe fn write_hit(
     }
 }
 
+/// Hits refused because their `t` was outside the ray's `(tnear, tfar)`.
+static OUT_OF_RANGE: AtomicU64 = AtomicU64::new(0);
+
+/// How many hits [`UserPrimitives::intersect`] implementations returned, in this process so
+/// far, with `t` outside the open interval `(tnear, tfar)` they were asked about (or NaN): each
+/// was refused (the ray saw no hit from that call) and counted here. A correct implementation
+/// never adds to it.
+pub fn user_hits_out_of_range() -> u64 {
+    OUT_OF_RANGE.load(Ordering::Relaxed)
+}
+
 /// The most candidate hits offered to the filters per primitive and lane.
 const MAX_CANDIDATES: usize = 32;
 
@@ -344,6 +356,13 @@ unsafe fn for_each_candidate<T: UserPrimitives>(
         let mut tnear = r.tnear;
         for _ in 0..MAX_CANDIDATES {
             let Some(h) = data.intersect_from(prim, from, r.org, r.dir, tnear, r.tfar) else { break };
+            // Embree takes the hit's t as the ray's new tfar: one outside the interval asked
+            // for (or NaN) would be a hit behind the origin or past a nearer one. Refused, and
+            // counted ([`user_hits_out_of_range`]).
+            if !(h.t > tnear && h.t < r.tfar) {
+                OUT_OF_RANGE.fetch_add(1, Ordering::Relaxed);
+                break;
+            }
             if offer(lane, &r, &h) {
                 break;
             }
