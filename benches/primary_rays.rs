@@ -25,14 +25,14 @@ fn bench(c: &mut Criterion) {
     let rays = camera_rays(128, 128);
     let mut native = Scene::new(&device).unwrap();
     native.attach_triangles(&p, &idx, GeometryOptions::default()).unwrap();
-    native.commit().unwrap();
+    let native = native.commit().unwrap();
     let mut user = Scene::new(&device).unwrap();
     user.attach_user(
         UserTriangles { positions: p.clone(), indices: idx.clone() },
         UserGeometryOptions::default(),
     )
     .unwrap();
-    user.commit().unwrap();
+    let user = user.commit().unwrap();
 
     let mut phong = Scene::new(&device).unwrap();
     phong
@@ -41,7 +41,7 @@ fn bench(c: &mut Criterion) {
             UserGeometryOptions::default(),
         )
         .unwrap();
-    phong.commit().unwrap();
+    let phong = phong.commit().unwrap();
 
     let mut g = c.benchmark_group("primary_rays_sphere_12x6");
     g.throughput(Throughput::Elements(rays.len() as u64));

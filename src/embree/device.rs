@@ -96,12 +96,6 @@ pub enum EmbreeError {
     /// A subdivision tessellation rate that is not a finite number >= 1.
     #[error("tessellation rate {0} is not >= 1")]
     TessellationRate(f32),
-    /// Tracing or instancing a scene that is not committed.
-    #[error("the scene is not committed (commit it before tracing or instancing it)")]
-    NotCommitted,
-    /// Changing or committing a scene that another scene instances (and may be tracing).
-    #[error("a scene that is instanced elsewhere cannot be changed or recommitted")]
-    InstancedElsewhere,
     /// A user-geometry callback panicked where no Rust caller could resume the panic: the
     /// bounds callback on one of Embree's build threads (reported by the commit that ran it,
     /// which leaves the scene uncommitted), or a query callback under the caller's own

@@ -8,7 +8,8 @@ pub use device::{
     MAX_INSTANCE_LEVEL_COUNT,
 };
 pub use scene::{
-    new_query_context, GeometryOptions, Hit, IntersectArgs, OccludedArgs, QueryContext, Ray, Scene, PACKET8,
+    new_query_context, CommittedScene, GeometryOptions, Hit, IntersectArgs, OccludedArgs, QueryContext, Ray,
+    Scene, PACKET8,
 };
 mod panic;
 pub mod user_geometry;

@@ -18,7 +18,8 @@ use glam::Vec3;
 use super::device::{EmbreeError, MAX_INSTANCE_LEVEL_COUNT};
 use super::panic::{self, PanicRecord};
 use super::scene::{
-    query_flags, rayhit8, valid8, Hit, OccludedArgs, OwnedGeometry, QueryContext, Ray, Scene, PACKET8,
+    query_flags, rayhit8, valid8, CommittedScene, Hit, OccludedArgs, OwnedGeometry, QueryContext, Ray, Scene,
+    PACKET8,
 };
 use crate::sys;
 
@@ -50,7 +51,7 @@ pub struct OriginPrim {
     pub v: f32,
 }
 
-/// Where an occlusion ray starts, for [`Scene::occluded1_from`] and [`Scene::occluded8_rays_from`]:
+/// Where an occlusion ray starts, for [`CommittedScene::occluded1_from`] and [`CommittedScene::occluded8_rays_from`]:
 /// the hit it leaves from (geometry, primitive, `(u, v)` and instance stack, as [`Hit`] reports
 /// them). A user geometry may then leave out the primitive the ray starts on where it proves the
 /// ray cannot meet it again ([`UserPrimitives::intersect_from`]); the answer is the same.
@@ -84,7 +85,7 @@ pub trait UserPrimitives: Send + Sync + 'static {
     /// The nearest hit of `org + t dir` with `t` in the open interval `(tnear, tfar)`.
     fn intersect(&self, prim: u32, org: Vec3, dir: Vec3, tnear: f32, tfar: f32) -> Option<PrimHit>;
     /// [`UserPrimitives::intersect`] for an occlusion ray that starts on this geometry at
-    /// `origin` ([`Scene::occluded1_from`]): an implementation may leave out the member `origin`
+    /// `origin` ([`CommittedScene::occluded1_from`]): an implementation may leave out the member `origin`
     /// names where it proves the ray cannot meet it, and must otherwise answer as `intersect`.
     /// The default ignores the origin.
     #[inline(always)]
@@ -333,7 +334,7 @@ unsafe extern "C" fn intersect_callback<T: UserPrimitives>(args: *const sys::RTC
 /// after a rejected candidate, look beyond it (at most [`MAX_CANDIDATES`]: 4 roots for each of
 /// a cluster's 8 patches, the resultant of a line and a quadratic patch being a quartic). A
 /// rejection restores the lane's `tfar`, so its value read here holds. `origin(lane)` is where
-/// the lane's ray starts on this geometry, if known (occlusion rays of [`Scene::occluded1_from`]).
+/// the lane's ray starts on this geometry, if known (occlusion rays of [`CommittedScene::occluded1_from`]).
 ///
 /// # Safety
 /// `ray` must be an RTCRayN (or the ray part of an RTCRayHitN) of width `valid.len()`.
@@ -593,8 +594,8 @@ const NO_ORIGIN: RayOrigin = RayOrigin {
     inst_id: [u32::MAX; MAX_INSTANCE_LEVEL_COUNT],
 };
 
-impl Scene {
-    /// [`Scene::occluded1`] for a ray that starts at `origin` (the hit it leaves from): the same
+impl CommittedScene {
+    /// [`CommittedScene::occluded1`] for a ray that starts at `origin` (the hit it leaves from): the same
     /// answer, with the primitive it starts on left out where its geometry proves the ray cannot
     /// meet it again (Phong patches: [`crate::phong::convexity::leaves_patch`]). `None` is
     /// `occluded1`.
@@ -605,11 +606,12 @@ impl Scene {
             ctx.origins[0] = o;
             r.id = 1;
         }
-        ctx.query(false, |args| self.occluded1_raw(&mut r, Some(args)).is_ok() && r.tfar == f32::NEG_INFINITY)
+        ctx.query(false, |args| self.occluded1_raw(&mut r, Some(args)));
+        r.tfar == f32::NEG_INFINITY
     }
 
-    /// [`Scene::occluded8_rays`] for rays that start at `origins[k]` (lane `k`), as
-    /// [`Scene::occluded1_from`] for one ray: the same answers.
+    /// [`CommittedScene::occluded8_rays`] for rays that start at `origins[k]` (lane `k`), as
+    /// [`CommittedScene::occluded1_from`] for one ray: the same answers.
     pub fn occluded8_rays_from(
         &self,
         rays: &[Ray; PACKET8],
@@ -628,9 +630,7 @@ impl Scene {
                 ray.id[k] = k as u32 + 1;
             }
         }
-        if !ctx.query(coherent, |args| self.occluded8(&valid8(active), &mut ray, Some(args)).is_ok()) {
-            return 0;
-        }
+        ctx.query(coherent, |args| self.occluded8(&valid8(active), &mut ray, Some(args)));
         (0..PACKET8)
             .fold(0, |m, k| m | (((active & (1 << k) != 0 && ray.tfar[k] == f32::NEG_INFINITY) as u8) << k))
     }
@@ -686,7 +686,7 @@ impl Scene {
         let record = boxed.panics.clone();
         let device = self.device().clone();
         // Hand the box to the scene first: its heap address stays put when the box moves.
-        self.keep_alive(boxed)?;
+        self.keep_alive(boxed);
         // The geometry's setters return nothing: `call` reads the errors they record, and a
         // geometry made before one failed is released with the `OwnedGeometry`.
         let geom = device.call(|| {
@@ -700,7 +700,7 @@ impl Scene {
             OwnedGeometry::new(&device, raw, "user geometry")
         })??;
         let id = self.attach_raw(geom)?;
-        self.watch_panics(id, record)?;
+        self.watch_panics(id, record);
         Ok(id)
     }
 }

@@ -6,12 +6,12 @@ use std::path::Path;
 use std::time::Instant;
 
 use glam::Vec3;
-use phongrt::embree::{Device, GeometryOptions, PhongMesh, Ray, Scene, UserGeometryOptions};
+use phongrt::embree::{CommittedScene, Device, GeometryOptions, PhongMesh, Ray, Scene, UserGeometryOptions};
 use phongrt::scene::{load_obj, uv_sphere, LoadOptions, Mesh};
 use phongrt_cli::bench::median;
 use phongrt_render::Camera;
 
-fn build(device: &Device, m: &Mesh, phong: bool) -> (Scene, f64, i64, usize) {
+fn build(device: &Device, m: &Mesh, phong: bool) -> (CommittedScene, f64, i64, usize) {
     let before = device.memory_bytes().0;
     let t = Instant::now();
     let mut s = Scene::new(device).unwrap();
@@ -24,7 +24,7 @@ fn build(device: &Device, m: &Mesh, phong: bool) -> (Scene, f64, i64, usize) {
         s.attach_triangles(&m.positions, &m.indices, GeometryOptions::default()).unwrap();
         0
     };
-    s.commit().unwrap();
+    let s = s.commit().unwrap();
     let secs = t.elapsed().as_secs_f64();
     (s, secs, device.memory_bytes().0 - before, own)
 }

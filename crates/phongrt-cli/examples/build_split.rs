@@ -23,11 +23,11 @@ fn main() -> anyhow::Result<()> {
         let mut s = Scene::new(&device)?;
         s.attach_phong(mesh, UserGeometryOptions::default())?;
         let t2 = Instant::now();
-        s.commit()?;
+        let _s = s.commit()?;
         let t3 = Instant::now();
         let mut f = Scene::new(&device)?;
         f.attach_triangles(&m.positions, &m.indices, GeometryOptions::default())?;
-        f.commit()?;
+        let _f = f.commit()?;
         let t4 = Instant::now();
         patches = patches.min((t1 - t0).as_secs_f64() * 1e3);
         commit = commit.min((t3 - t2).as_secs_f64() * 1e3);

@@ -17,8 +17,8 @@ use glam::Vec3;
 
 use crate::bench::{bench_light, primary_rays, shadow_ray, BenchError};
 use phongrt::embree::{
-    Device, GeometryOptions, OriginPrim, PatchTest, PhongMesh, PrimHit, Ray, RayOrigin, Scene,
-    UserGeometryOptions, UserPrimitives, UserTriangles,
+    CommittedScene, Device, GeometryOptions, OriginPrim, PatchTest, PhongMesh, PrimHit, Ray, RayOrigin,
+    Scene, UserGeometryOptions, UserPrimitives, UserTriangles,
 };
 use phongrt::phong::{intersect_in_hull_traced, intersect_traced, TestOutcome, V3};
 use phongrt::scene::Mesh;
@@ -97,11 +97,11 @@ type CallLog = Arc<Mutex<Vec<Call>>>;
 fn recording_scene<T: UserPrimitives>(
     device: &Device,
     prims: Arc<T>,
-) -> Result<(Scene, CallLog), BenchError> {
+) -> Result<(CommittedScene, CallLog), BenchError> {
     let calls = Arc::new(Mutex::new(Vec::new()));
     let mut scene = Scene::new(device)?;
     scene.attach_user(Recording { inner: prims, calls: calls.clone() }, UserGeometryOptions::default())?;
-    scene.commit()?;
+    let scene = scene.commit()?;
     Ok((scene, calls))
 }
 
@@ -109,7 +109,7 @@ fn recording_scene<T: UserPrimitives>(
 type Traced = (Ray, Option<RayOrigin>);
 
 /// Trace `rays` of `kind` through `scene` on this thread.
-fn trace(scene: &Scene, rays: &[Traced], kind: RayKind) {
+fn trace(scene: &CommittedScene, rays: &[Traced], kind: RayKind) {
     for (r, origin) in rays {
         match kind {
             RayKind::Primary => {
@@ -145,7 +145,7 @@ fn rays_of(
 }
 
 /// The calls `scene` logs into `log` while `rays` are traced.
-fn calls_of(scene: &Scene, log: &Mutex<Vec<Call>>, rays: &[Traced], kind: RayKind) -> Vec<Call> {
+fn calls_of(scene: &CommittedScene, log: &Mutex<Vec<Call>>, rays: &[Traced], kind: RayKind) -> Vec<Call> {
     let take = || std::mem::take(&mut *log.lock().unwrap_or_else(|e| e.into_inner()));
     take();
     trace(scene, rays, kind);
@@ -232,10 +232,10 @@ struct Solve {
 /// (recording), and a plain scene of the Phong mesh for timing.
 struct Scenes {
     mesh: Arc<PhongMesh>,
-    recording: (Scene, CallLog),
-    direct: Scene,
-    flat: Scene,
-    floor: (Scene, CallLog),
+    recording: (CommittedScene, CallLog),
+    direct: CommittedScene,
+    flat: CommittedScene,
+    floor: (CommittedScene, CallLog),
 }
 
 impl Scenes {
@@ -248,10 +248,10 @@ impl Scenes {
         );
         let mut direct = Scene::new(device)?;
         direct.attach_phong(mesh.clone(), UserGeometryOptions::default())?;
-        direct.commit()?;
+        let direct = direct.commit()?;
         let mut flat = Scene::new(device)?;
         flat.attach_triangles(&m.positions, &m.indices, GeometryOptions::default())?;
-        flat.commit()?;
+        let flat = flat.commit()?;
         let floor = UserTriangles { positions: m.positions.clone(), indices: m.indices.clone() };
         Ok(Scenes {
             recording: recording_scene(device, mesh.clone())?,
@@ -331,7 +331,8 @@ fn profile_rays(name: &str, scenes: &Scenes, rays: &[Traced], kind: RayKind, clu
         std::hint::black_box(mesh.intersect_from(c.prim, c.origin, c.org, c.dir, c.tnear, c.tfar));
     };
     // Time the rays through Embree: each scene as the best of a few runs of all the rays.
-    let through = |scene: &Scene| replay_ns(&[()], |_| trace(scene, rays, kind)) / rays.len().max(1) as f64;
+    let through =
+        |scene: &CommittedScene| replay_ns(&[()], |_| trace(scene, rays, kind)) / rays.len().max(1) as f64;
     let per_ray = |x: f64| x / rays.len().max(1) as f64;
     Profile {
         scene: name.to_string(),
@@ -465,7 +466,7 @@ pub fn count_work(
 /// `replay`. Never inlined, so that callgrind's `--toggle-collect=*counted_work*` finds it.
 #[inline(never)]
 fn counted_work(
-    scene: &Scene,
+    scene: &CommittedScene,
     mesh: &PhongMesh,
     rays: &[Traced],
     kind: RayKind,
