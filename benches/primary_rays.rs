@@ -3,7 +3,7 @@
 //! `cargo bench --bench primary_rays` prints ns per ray; Mrays/s = 1000 / ns.
 use criterion::{criterion_group, Criterion, Throughput};
 use glam::Vec3;
-use phongrt::embree::{Device, GeometryOptions, PhongMesh, Ray, Scene, UserGeometryOptions, UserTriangles};
+use phongrt::embree::{Device, GeometryOptions, PhongMesh, Ray, Scene, UserTriangles};
 
 fn camera_rays(w: u32, h: u32) -> Vec<Ray> {
     let eye = Vec3::new(0.0, 0.0, 3.0);
@@ -29,7 +29,7 @@ fn bench(c: &mut Criterion) {
     let mut user = Scene::new(&device).unwrap();
     user.attach_user(
         UserTriangles { positions: p.clone(), indices: idx.clone() },
-        UserGeometryOptions::default(),
+        GeometryOptions::default(),
     )
     .unwrap();
     let user = user.commit().unwrap();
@@ -38,7 +38,7 @@ fn bench(c: &mut Criterion) {
     phong
         .attach_phong(
             PhongMesh::new(p.clone(), n.clone(), idx.clone(), 1.0).unwrap(),
-            UserGeometryOptions::default(),
+            GeometryOptions::default(),
         )
         .unwrap();
     let phong = phong.commit().unwrap();

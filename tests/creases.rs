@@ -3,7 +3,7 @@
 mod common;
 
 use glam::Vec3;
-use phongrt::embree::{CommittedScene, Device, PhongMesh, Ray, Scene, UserGeometryOptions};
+use phongrt::embree::{CommittedScene, Device, GeometryOptions, PhongMesh, Ray, Scene};
 use phongrt::phong::accuracy::SplitMix;
 use phongrt::scene::{load_obj_text, EdgeKind, LoadOptions, Mesh};
 
@@ -19,7 +19,7 @@ fn scene_of(device: &Device, meshes: &[Mesh], straight_creases: bool) -> Committ
             straight_creases.then_some(&straight[..]),
         )
         .unwrap();
-        s.attach_phong(pm, UserGeometryOptions::default()).unwrap();
+        s.attach_phong(pm, GeometryOptions::default()).unwrap();
     }
     s.commit().unwrap()
 }

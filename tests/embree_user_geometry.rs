@@ -6,7 +6,7 @@ use std::panic::{catch_unwind, AssertUnwindSafe};
 
 use phongrt::embree::{
     CommittedScene, Device, EmbreeError, GeometryOptions, IntersectArgs, OccludedArgs, PrimHit, QueryContext,
-    Ray, Scene, UserGeometryOptions, UserPrimitives, UserTriangles,
+    Ray, Scene, UserPrimitives, UserTriangles,
 };
 use phongrt::sys;
 
@@ -41,7 +41,7 @@ fn scenes(device: &Device) -> (CommittedScene, CommittedScene) {
     native.attach_triangles(&p, &i, GeometryOptions::default()).unwrap();
     let native = native.commit().unwrap();
     let mut user = Scene::new(device).unwrap();
-    user.attach_user(UserTriangles { positions: p, indices: i }, UserGeometryOptions::default()).unwrap();
+    user.attach_user(UserTriangles { positions: p, indices: i }, GeometryOptions::default()).unwrap();
     let user = user.commit().unwrap();
     (native, user)
 }
@@ -214,7 +214,7 @@ fn filters_see_and_reject_candidates_as_on_triangles() {
             scene
                 .attach_user(
                     UserTriangles { positions: p.clone(), indices: i.clone() },
-                    UserGeometryOptions::default(),
+                    GeometryOptions::default(),
                 )
                 .unwrap()
         } else {
@@ -243,9 +243,7 @@ fn masks_and_instances_work_for_user_geometry() {
     let device = Device::new().unwrap();
     let (p, i) = octahedron();
     let mut child = Scene::new(&device).unwrap();
-    child
-        .attach_user(UserTriangles { positions: p, indices: i }, UserGeometryOptions { mask: 0b10 })
-        .unwrap();
+    child.attach_user(UserTriangles { positions: p, indices: i }, GeometryOptions { mask: 0b10 }).unwrap();
     let child = child.commit().unwrap();
     let mut top = Scene::new(&device).unwrap();
     let inst =
@@ -327,7 +325,7 @@ fn raw_packet_queries_trace_only_the_valid_lanes() {
     let device = Device::new().unwrap();
     let (p, i) = octahedron();
     let mut scene = Scene::new(&device).unwrap();
-    scene.attach_user(UserTriangles { positions: p, indices: i }, UserGeometryOptions::default()).unwrap();
+    scene.attach_user(UserTriangles { positions: p, indices: i }, GeometryOptions::default()).unwrap();
     let scene = scene.commit().unwrap();
     let r = Ray::new(Vec3::new(0.1, 0.1, 3.0), -Vec3::Z);
     let mut rh = phongrt::embree::scene::new_rayhit(r);
@@ -377,7 +375,7 @@ impl UserPrimitives for Panicky {
 
 fn panicky_scene(device: &Device, in_bounds: bool, in_intersect: bool) -> Scene {
     let mut scene = Scene::new(device).unwrap();
-    scene.attach_user(Panicky { in_bounds, in_intersect }, UserGeometryOptions::default()).unwrap();
+    scene.attach_user(Panicky { in_bounds, in_intersect }, GeometryOptions::default()).unwrap();
     scene
 }
 
@@ -446,7 +444,7 @@ fn phong_sphere(device: &Device, k: usize, filtered: bool) -> CommittedScene {
         .build()
         .unwrap();
     let mut scene = Scene::new(device).unwrap();
-    let id = scene.attach_phong(mesh, UserGeometryOptions::default()).unwrap();
+    let id = scene.attach_phong(mesh, GeometryOptions::default()).unwrap();
     if filtered {
         filter_out_even(&scene, id);
     }
@@ -550,7 +548,7 @@ fn a_user_hit_outside_the_ray_interval_is_refused_and_counted() {
     for (t, hit) in [(1.0, true), (0.25, false), (0.5, false), (2.0, false), (-1.0, false), (f32::NAN, false)]
     {
         let mut scene = Scene::new(&device).unwrap();
-        scene.attach_user(FixedT(t), UserGeometryOptions::default()).unwrap();
+        scene.attach_user(FixedT(t), GeometryOptions::default()).unwrap();
         let scene = scene.commit().unwrap();
         let before = phongrt::embree::user_hits_out_of_range();
         assert_eq!(scene.intersect1(ray).map(|h| h.t), hit.then_some(t), "t = {t}");

@@ -6,8 +6,7 @@ use std::panic::{catch_unwind, AssertUnwindSafe};
 
 use glam::Vec3;
 use phongrt::embree::{
-    CommittedScene, Device, GeometryOptions, PhongMesh, PrimHit, Ray, Scene, UserGeometryOptions,
-    UserPrimitives, PACKET8,
+    CommittedScene, Device, GeometryOptions, PhongMesh, PrimHit, Ray, Scene, UserPrimitives, PACKET8,
 };
 use phongrt::phong::accuracy::SplitMix;
 use phongrt::scene::uv_sphere;
@@ -87,7 +86,7 @@ fn packet_lanes_equal_single_rays_on_a_phong_mesh() {
     let m = uv_sphere(12, 6, 1.0);
     let pm = PhongMesh::new(m.positions.clone(), m.normals.clone(), m.indices.clone(), 0.75).unwrap();
     let mut scene = Scene::new(&device).unwrap();
-    scene.attach_phong(pm, UserGeometryOptions::default()).unwrap();
+    scene.attach_phong(pm, GeometryOptions::default()).unwrap();
     // A flat floor beside it, so packets mix user geometry and Embree's triangles.
     let floor = [Vec3::new(-3.0, -1.0, -3.0), Vec3::new(3.0, -1.0, -3.0), Vec3::new(0.0, -1.0, 3.0)];
     scene.attach_triangles(&floor, &[[0, 2, 1]], GeometryOptions::default()).unwrap();
@@ -132,7 +131,7 @@ impl UserPrimitives for Exploding {
 fn a_panic_in_a_callback_during_a_packet_query_is_resumed_in_the_caller() {
     let device = Device::new().unwrap();
     let mut scene = Scene::new(&device).unwrap();
-    scene.attach_user(Exploding, UserGeometryOptions::default()).unwrap();
+    scene.attach_user(Exploding, GeometryOptions::default()).unwrap();
     let scene = scene.commit().unwrap();
     let rays = [Ray::new(Vec3::new(0.2, 0.3, 1.0), -Vec3::Z); PACKET8];
     for coherent in [true, false] {

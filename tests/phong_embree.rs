@@ -1,7 +1,7 @@
 //! Phong meshes through Embree: watertightness, parity with triangles at alpha = 0,
 //! agreement with the pure-Rust intersector, shading helpers.
 use glam::Vec3;
-use phongrt::embree::{CommittedScene, Device, GeometryOptions, PhongMesh, Ray, Scene, UserGeometryOptions};
+use phongrt::embree::{CommittedScene, Device, GeometryOptions, PhongMesh, Ray, Scene};
 use phongrt::phong::accuracy::SplitMix;
 use phongrt::scene::{uv_sphere, Mesh};
 
@@ -16,7 +16,7 @@ fn phong_scene(device: &Device, mesh: &Mesh, alpha: f32, straight_creases: bool)
     )
     .unwrap();
     let mut s = Scene::new(device).unwrap();
-    s.attach_phong(pm, UserGeometryOptions::default()).unwrap();
+    s.attach_phong(pm, GeometryOptions::default()).unwrap();
     s.commit().unwrap()
 }
 
@@ -198,7 +198,7 @@ fn phong_mesh_attaches_to_a_raw_scene_made_by_the_callers_own_embree_code() {
     unsafe {
         let raw_device = sys::rtcGetSceneDevice(helper.raw());
         let raw = sys::rtcNewScene(raw_device);
-        let handle = attach_phong_raw(raw, pm, UserGeometryOptions::default()).unwrap();
+        let handle = attach_phong_raw(raw, pm, GeometryOptions::default()).unwrap();
         sys::rtcCommitScene(raw);
         let mut rh = phongrt::embree::scene::new_rayhit(Ray::new(Vec3::new(0.0, 3.0, 0.0), -Vec3::Y));
         sys::rtcIntersect1(raw, &mut rh, std::ptr::null_mut());
@@ -219,7 +219,7 @@ fn attach_phong_shares_the_mesh_with_the_caller_without_a_copy() {
     let m = uv_sphere(12, 6, 1.0);
     let mesh = Arc::new(PhongMesh::new(m.positions, m.normals, m.indices, 1.0).unwrap());
     let mut s = Scene::new(&device).unwrap();
-    s.attach_phong(mesh.clone(), UserGeometryOptions::default()).unwrap();
+    s.attach_phong(mesh.clone(), GeometryOptions::default()).unwrap();
     let s = s.commit().unwrap();
     // The scene holds the caller's mesh itself: one more reference, no second copy.
     assert_eq!(Arc::strong_count(&mesh), 2);

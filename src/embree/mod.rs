@@ -8,14 +8,15 @@ pub use device::{
     MAX_INSTANCE_LEVEL_COUNT,
 };
 pub use scene::{
-    new_query_context, CommittedScene, GeometryOptions, Hit, IntersectArgs, OccludedArgs, QueryContext, Ray,
-    Scene, PACKET8,
+    new_rayhit, CommittedScene, GeometryOptions, Hit, IntersectArgs, OccludedArgs, QueryContext, Ray, Scene,
+    PACKET8,
 };
 mod panic;
 pub mod user_geometry;
+#[allow(deprecated)]
+pub use user_geometry::UserGeometryOptions;
 pub use user_geometry::{
-    user_hits_out_of_range, OriginPrim, PrimHit, RayOrigin, UserGeometryOptions, UserPrimitives,
-    UserTriangles,
+    user_hits_out_of_range, OriginPrim, PrimHit, RayOrigin, UserPrimitives, UserTriangles,
 };
 #[cfg(feature = "capi")]
 pub mod capi;

@@ -82,7 +82,8 @@ pub struct Hit {
     pub inst_id: [u32; MAX_INSTANCE_LEVEL_COUNT],
 }
 
-pub(crate) fn empty_rayhit(ray: Ray) -> sys::RTCRayHit {
+/// A raw `RTCRayHit` for `ray` with no hit yet (geomID invalid), for callers of the raw API.
+pub fn new_rayhit(ray: Ray) -> sys::RTCRayHit {
     sys::RTCRayHit {
         ray: ray.to_sys(),
         hit: sys::RTCHit {
@@ -93,11 +94,6 @@ pub(crate) fn empty_rayhit(ray: Ray) -> sys::RTCRayHit {
             ..Default::default()
         },
     }
-}
-
-/// A raw `RTCRayHit` for `ray` with no hit yet (geomID invalid), for callers of the raw API.
-pub fn new_rayhit(ray: Ray) -> sys::RTCRayHit {
-    empty_rayhit(ray)
 }
 
 pub(crate) fn hit_of(rh: &sys::RTCRayHit) -> Option<Hit> {
@@ -112,15 +108,6 @@ pub(crate) fn hit_of(rh: &sys::RTCRayHit) -> Option<Hit> {
     })
 }
 
-/// A raw ray query context with an empty instance stack (`rtcInitRayQueryContext` is an inline
-/// function of the header, so it is rewritten here).
-pub fn new_query_context() -> sys::RTCRayQueryContext {
-    sys::RTCRayQueryContext {
-        instID: [sys::RTC_INVALID_GEOMETRY_ID; MAX_INSTANCE_LEVEL_COUNT],
-        instPrimID: [sys::RTC_INVALID_GEOMETRY_ID; MAX_INSTANCE_LEVEL_COUNT],
-    }
-}
-
 /// A ray query context (`RTCRayQueryContext`) that can only hold what `rtcInitRayQueryContext`
 /// puts there, an empty instance stack, and what Embree itself pushes during a query. Filter
 /// functions see it as the `context` of their arguments.
@@ -129,9 +116,13 @@ pub fn new_query_context() -> sys::RTCRayQueryContext {
 pub struct QueryContext(sys::RTCRayQueryContext);
 
 impl QueryContext {
-    /// A context with an empty instance stack.
+    /// A context with an empty instance stack (`rtcInitRayQueryContext` is an inline function
+    /// of the header, so it is rewritten here).
     pub fn new() -> Self {
-        QueryContext(new_query_context())
+        QueryContext(sys::RTCRayQueryContext {
+            instID: [sys::RTC_INVALID_GEOMETRY_ID; MAX_INSTANCE_LEVEL_COUNT],
+            instPrimID: [sys::RTC_INVALID_GEOMETRY_ID; MAX_INSTANCE_LEVEL_COUNT],
+        })
     }
 
     /// The raw context (read only).
@@ -284,8 +275,8 @@ pub struct CommittedScene {
     robust: bool,
 }
 
-/// Options for attaching geometry of any kind: [`Scene::attach_triangles`], and (as
-/// `UserGeometryOptions`, the same fields) [`Scene::attach_user`] and [`Scene::attach_phong`].
+/// Options for attaching geometry of any kind: [`Scene::attach_triangles`],
+/// [`Scene::attach_user`] and [`Scene::attach_phong`].
 #[derive(Clone, Copy, Debug)]
 pub struct GeometryOptions {
     /// Geometry mask: a ray sees this geometry only if `ray.mask & mask != 0`. The default is
@@ -690,7 +681,7 @@ impl CommittedScene {
     ///
     /// A panic in a user geometry's callback during the query is resumed here.
     pub fn intersect1(&self, ray: Ray) -> Option<Hit> {
-        let mut rh = empty_rayhit(ray);
+        let mut rh = new_rayhit(ray);
         self.intersect1_raw(&mut rh, None);
         hit_of(&rh)
     }

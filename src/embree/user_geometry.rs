@@ -18,8 +18,8 @@ use glam::Vec3;
 use super::device::{EmbreeError, MAX_INSTANCE_LEVEL_COUNT};
 use super::panic::{self, PanicRecord};
 use super::scene::{
-    query_flags, rayhit8, valid8, CommittedScene, Hit, OccludedArgs, OwnedGeometry, QueryContext, Ray, Scene,
-    PACKET8,
+    query_flags, rayhit8, valid8, CommittedScene, GeometryOptions, Hit, OccludedArgs, OwnedGeometry,
+    QueryContext, Ray, Scene, PACKET8,
 };
 use crate::sys;
 
@@ -636,8 +636,9 @@ impl CommittedScene {
     }
 }
 
-/// The options of a user geometry: the same as every attach's ([`GeometryOptions`](super::scene::GeometryOptions)).
-pub use super::scene::GeometryOptions as UserGeometryOptions;
+/// The former name of [`GeometryOptions`], the one options type of every attach.
+#[deprecated(since = "0.1.0", note = "use GeometryOptions, the one options type of every attach")]
+pub type UserGeometryOptions = GeometryOptions;
 
 /// Create a committed user geometry for `data` on `device_raw`. The caller must keep `data`
 /// at its address for as long as the geometry can be traced.
@@ -648,7 +649,7 @@ pub use super::scene::GeometryOptions as UserGeometryOptions;
 pub(crate) unsafe fn new_user_geometry<T: UserPrimitives>(
     device_raw: sys::RTCDevice,
     data: *const UserData<T>,
-    options: UserGeometryOptions,
+    options: GeometryOptions,
 ) -> sys::RTCGeometry {
     // SAFETY: the caller guarantees the device and data; the callbacks are monomorphised for
     // `T` and only ever cast geometryUserPtr back to `UserData<T>`; a null geometry (error
@@ -679,7 +680,7 @@ impl Scene {
     pub fn attach_user<T: UserPrimitives>(
         &mut self,
         prims: T,
-        options: UserGeometryOptions,
+        options: GeometryOptions,
     ) -> Result<u32, EmbreeError> {
         let boxed = Box::new(UserData::new(prims));
         let ptr: *const UserData<T> = &*boxed;

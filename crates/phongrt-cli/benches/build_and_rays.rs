@@ -6,7 +6,7 @@ use std::path::Path;
 use std::time::Instant;
 
 use glam::Vec3;
-use phongrt::embree::{CommittedScene, Device, GeometryOptions, PhongMesh, Ray, Scene, UserGeometryOptions};
+use phongrt::embree::{CommittedScene, Device, GeometryOptions, PhongMesh, Ray, Scene};
 use phongrt::scene::{load_obj, uv_sphere, LoadOptions, Mesh};
 use phongrt_cli::bench::median;
 use phongrt_render::Camera;
@@ -18,7 +18,7 @@ fn build(device: &Device, m: &Mesh, phong: bool) -> (CommittedScene, f64, i64, u
     let own = if phong {
         let pm = PhongMesh::new(m.positions.clone(), m.normals.clone(), m.indices.clone(), 1.0).unwrap();
         let own = pm.memory_bytes();
-        s.attach_phong(pm, UserGeometryOptions::default()).unwrap();
+        s.attach_phong(pm, GeometryOptions::default()).unwrap();
         own
     } else {
         s.attach_triangles(&m.positions, &m.indices, GeometryOptions::default()).unwrap();

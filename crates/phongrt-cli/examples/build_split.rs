@@ -5,7 +5,7 @@ use std::path::PathBuf;
 use std::time::Instant;
 
 use anyhow::Context;
-use phongrt::embree::{Device, GeometryOptions, PhongMesh, Scene, UserGeometryOptions};
+use phongrt::embree::{Device, GeometryOptions, PhongMesh, Scene};
 use phongrt::scene::{load_obj, LoadOptions};
 
 fn main() -> anyhow::Result<()> {
@@ -21,7 +21,7 @@ fn main() -> anyhow::Result<()> {
             PhongMesh::with_straight_edges(&m.positions, &m.normals, &m.indices, 1.0, Some(&straight))?;
         let t1 = Instant::now();
         let mut s = Scene::new(&device)?;
-        s.attach_phong(mesh, UserGeometryOptions::default())?;
+        s.attach_phong(mesh, GeometryOptions::default())?;
         let t2 = Instant::now();
         let _s = s.commit()?;
         let t3 = Instant::now();

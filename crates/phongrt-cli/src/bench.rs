@@ -8,7 +8,7 @@ use rayon::prelude::*;
 
 use phongrt::embree::{
     patch_prim_hit, CommittedScene, Device, EmbreeError, GeometryOptions, PhongMesh, PhongMeshError, PrimHit,
-    Ray, RayOrigin, Scene, UserGeometryOptions, UserPrimitives, UserTriangles, PACKET8,
+    Ray, RayOrigin, Scene, UserPrimitives, UserTriangles, PACKET8,
 };
 use phongrt::phong::{control_points, intersect, Method, Patch, V3};
 use phongrt::scene::Mesh;
@@ -297,25 +297,26 @@ fn build(
                 _ => (Method::Certified, 1),
             };
             let pm = PhongMesh::builder(&m.positions, &m.normals, &m.indices)
+                .alpha(1.0)
                 .straight_edges(&straight)
                 .method(solver)
                 .cluster_size(k)
                 .build()?;
             let own = pm.memory_bytes();
-            s.attach_phong(pm, UserGeometryOptions::default())?;
+            s.attach_phong(pm, GeometryOptions::default())?;
             own
         }
         BenchMethod::DirectF64 => {
             let patches = patches64(m, 1.0);
             let own = patches.len() * std::mem::size_of::<Patch<f64>>();
-            s.attach_user(PhongMesh64 { patches }, UserGeometryOptions::default())?;
+            s.attach_user(PhongMesh64 { patches }, GeometryOptions::default())?;
             own
         }
         BenchMethod::UserFloor => {
             let own = m.positions.len() * 12 + m.indices.len() * 12;
             s.attach_user(
                 UserTriangles { positions: m.positions.clone(), indices: m.indices.clone() },
-                UserGeometryOptions::default(),
+                GeometryOptions::default(),
             )?;
             own
         }

@@ -18,7 +18,7 @@ use glam::Vec3;
 use crate::bench::{bench_light, primary_rays, shadow_ray, BenchError};
 use phongrt::embree::{
     CommittedScene, Device, GeometryOptions, OriginPrim, PatchTest, PhongMesh, PrimHit, Ray, RayOrigin,
-    Scene, UserGeometryOptions, UserPrimitives, UserTriangles,
+    Scene, UserPrimitives, UserTriangles,
 };
 use phongrt::phong::{intersect_in_hull_traced, intersect_traced, TestOutcome, V3};
 use phongrt::scene::Mesh;
@@ -100,7 +100,7 @@ fn recording_scene<T: UserPrimitives>(
 ) -> Result<(CommittedScene, CallLog), BenchError> {
     let calls = Arc::new(Mutex::new(Vec::new()));
     let mut scene = Scene::new(device)?;
-    scene.attach_user(Recording { inner: prims, calls: calls.clone() }, UserGeometryOptions::default())?;
+    scene.attach_user(Recording { inner: prims, calls: calls.clone() }, GeometryOptions::default())?;
     let scene = scene.commit()?;
     Ok((scene, calls))
 }
@@ -242,12 +242,13 @@ impl Scenes {
     fn new(device: &Device, m: &Mesh, cluster_size: usize) -> Result<Self, BenchError> {
         let mesh = Arc::new(
             PhongMesh::builder(&m.positions, &m.normals, &m.indices)
+                .alpha(1.0)
                 .straight_edges(&m.straight_edges())
                 .cluster_size(cluster_size)
                 .build()?,
         );
         let mut direct = Scene::new(device)?;
-        direct.attach_phong(mesh.clone(), UserGeometryOptions::default())?;
+        direct.attach_phong(mesh.clone(), GeometryOptions::default())?;
         let direct = direct.commit()?;
         let mut flat = Scene::new(device)?;
         flat.attach_triangles(&m.positions, &m.indices, GeometryOptions::default())?;

@@ -9,8 +9,7 @@ use glam::{Vec2, Vec3};
 use super::texture::Texture;
 use super::{RayCounts, RenderError};
 use phongrt::embree::{
-    CommittedScene, Device, GeometryOptions, Hit, PhongMesh, Ray, RayOrigin, Scene, UserGeometryOptions,
-    PACKET8,
+    CommittedScene, Device, GeometryOptions, Hit, PhongMesh, Ray, RayOrigin, Scene, PACKET8,
 };
 use phongrt::phong::ShadingNormal;
 use phongrt::phong::{Real, V3};
@@ -527,7 +526,7 @@ impl World {
                     let pm = std::sync::Arc::new(pm);
                     phong = Some(pm.clone());
                     scene
-                        .attach_phong(pm, UserGeometryOptions::default())
+                        .attach_phong(pm, GeometryOptions::default())
                         .map_err(|source| RenderError::Object { name: mesh.name.clone(), source })?
                 }
             };
