@@ -126,8 +126,9 @@ fn rays_aimed_at_crease_edges_hit() {
 }
 
 #[test]
+#[ignore = "needs ../shared/corpus"]
 fn corpus_closed_models_leak_nothing() {
-    let Some(corpus) = common::corpus() else { return };
+    let corpus = common::corpus_required();
     let device = Device::new().unwrap();
     // sphere_smooth: quads + triangles with file normals, closed; its centre is inside.
     let s =
