@@ -269,7 +269,9 @@ impl Device {
     }
 
     /// Turn an Embree error pending on this thread (if any) into `Err`. Errors of calls made
-    /// on other threads are theirs: they are not reported here.
+    /// on other threads are theirs: they are not reported here. An error the caller's own raw
+    /// calls left pending when a phongrt call ran on this device is kept for this method (Embree's
+    /// own `rtcGetDeviceError` no longer returns it then).
     pub fn check(&self) -> Result<(), EmbreeError> {
         match self.take_error() {
             None => Ok(()),
