@@ -1,12 +1,15 @@
 //! The work `scripts/instructions.sh` counts under callgrind: the bench's primary or shadow rays
 //! (256², one patch per primitive) through Embree on the Phong mesh or on its flat triangles, or
-//! the patch solves of one outcome replayed alone. Prints how many rays or solves it ran; the
-//! instructions are those of `counted_work` alone (callgrind `--toggle-collect`).
+//! the patch solves of one outcome replayed alone, or the same rays in 8-ray packets
+//! (`phong-packets`, `phong-packets-lane-by-lane`, `flat-packets`). Prints how many rays or
+//! solves it ran; the instructions are those of `counted_work` (or `counted_packets`) alone
+//! (callgrind `--toggle-collect`).
 //!
-//! Run: `cargo run --release --example instructions -- SCENE primary|shadow phong|flat|OUTCOME`,
-//! SCENE `sphere-120` or an OBJ file, OUTCOME a [`TestOutcome`] name with `-` for spaces; or
-//! `-- SCENE shadow origin` for the tests of the patch each shadow ray starts on (no callgrind
-//! needed): the ray count, then one line per outcome of their full solve, `OUTCOME tests skipped`.
+//! Run: `cargo run --release --example instructions -- SCENE primary|shadow WHAT`, SCENE
+//! `sphere-120` or an OBJ file, WHAT `phong`, `flat`, one of the packet modes above, or a
+//! [`TestOutcome`] name with `-` for spaces; or `-- SCENE shadow origin` for the tests of the
+//! patch each shadow ray starts on (no callgrind needed): the ray count, then one line per
+//! outcome of their full solve, `OUTCOME tests skipped`.
 use std::path::Path;
 use std::process::ExitCode;
 
@@ -32,7 +35,7 @@ fn main() -> ExitCode {
     let args: Vec<String> = std::env::args().skip(1).collect();
     let run = || -> Result<usize, String> {
         let [scene, kind, what] = args.as_slice() else {
-            return Err("usage: instructions SCENE primary|shadow phong|flat|OUTCOME|origin".into());
+            return Err("usage: instructions SCENE primary|shadow phong|flat|PACKETS|OUTCOME|origin".into());
         };
         let name = Path::new(scene).file_stem().map(|s| s.to_string_lossy().into_owned()).unwrap_or_default();
         if what == "origin" {
@@ -50,6 +53,9 @@ fn main() -> ExitCode {
         let what = match what.as_str() {
             "phong" => Counted::Phong,
             "flat" => Counted::Flat,
+            "phong-packets" => Counted::PhongPackets,
+            "phong-packets-lane-by-lane" => Counted::PhongPacketsLaneByLane,
+            "flat-packets" => Counted::FlatPackets,
             w => Counted::Outcome(
                 TestOutcome::ALL
                     .into_iter()

@@ -2,7 +2,9 @@
 # Instructions per ray and per patch test, counted by callgrind (repeatable where wall times are
 # not): the bench's primary rays and the shadow rays of its shaded render (256², 1 thread, one
 # patch per primitive), through Embree on the Phong mesh against its flat triangles, and each
-# outcome of the patch solve replayed alone. Only `counted_work` is collected (set-up excluded).
+# outcome of the patch solve replayed alone; then the same rays in the renderer's 8-ray packets
+# (4x2 pixel blocks), the lanes tested together and one by one. Only `counted_work` (or
+# `counted_packets`) is collected (set-up excluded).
 #
 #   scripts/instructions.sh [SCENE...]     SCENE: sphere-120 (default) or an OBJ file
 #
@@ -14,7 +16,7 @@ set -euo pipefail
 cd "$(dirname "$0")/.."
 command -v valgrind >/dev/null || { echo "instructions.sh: valgrind is not installed" >&2; exit 1; }
 cargo build --release --quiet --example instructions
-bin=target/release/examples/instructions
+bin=${CARGO_TARGET_DIR:-target}/release/examples/instructions
 [ $# -gt 0 ] || set -- sphere-120
 
 # count SCENE KIND WHAT: prints "items instructions".
@@ -22,7 +24,7 @@ count() {
     local log out n ir
     log=$(mktemp)
     out=$(valgrind --tool=callgrind --callgrind-out-file=/dev/null --collect-atstart=no \
-        --toggle-collect='*counted_work*' "$bin" "$@" 2>"$log") || { cat "$log" >&2; rm -f "$log"; exit 1; }
+        --toggle-collect='*counted_work*' --toggle-collect='*counted_packets*' "$bin" "$@" 2>"$log") || { cat "$log" >&2; rm -f "$log"; exit 1; }
     n=$out
     ir=$(sed -n 's/.*Collected : \([0-9]*\).*/\1/p' "$log")
     rm -f "$log"
@@ -48,6 +50,16 @@ for scene in "$@"; do
         done
         awk -v k="$kind" -v p="$phong" -v f="$flat" -v r="$rays" -v t="$tests" \
             'BEGIN{printf "| %s | %d | %d | %.2f | %.3f |\n", k, p/r, f/r, p/f, t/r}'
+    done
+    echo
+    echo "| rays, 8-ray packets | phong instr/ray | lane by lane | flat instr/ray | phong / flat |"
+    echo "|---|---|---|---|---|"
+    for kind in primary shadow; do
+        read -r rays phong <<<"$(count "$scene" "$kind" phong-packets)"
+        read -r _ lanes <<<"$(count "$scene" "$kind" phong-packets-lane-by-lane)"
+        read -r _ flat <<<"$(count "$scene" "$kind" flat-packets)"
+        awk -v k="$kind" -v p="$phong" -v l="$lanes" -v f="$flat" -v r="$rays" \
+            'BEGIN{printf "| %s | %d | %d | %d | %.2f |\n", k, p/r, l/r, f/r, p/f}'
     done
     echo
     echo "| rays | outcome | tests | per ray | instr/test |"

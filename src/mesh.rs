@@ -23,6 +23,10 @@ pub enum EdgeKind {
     Border,
     /// More than two triangles share the edge.
     NonManifold,
+    /// Smooth (one normal per end, shared with one neighbour) but kept straight: the curve its
+    /// end normals would give it strays from the chord by more than [`BULGE_LIMIT`] times the
+    /// height of a triangle beside it ([`bulging_edges`]), a balloon on a sliver.
+    Straightened,
 }
 
 /// Weld positions using a hash grid of cell `tol`; returns a position id per input position
@@ -130,6 +134,85 @@ pub fn weld_caps(positions: &[Vec3], triangles: &[[u32; 3]]) -> Vec<f64> {
 /// [`EdgeKind::Smooth`]: a crease, a border or a non-manifold edge).
 pub fn straight_edges(edge_kinds: &[[EdgeKind; 3]]) -> Vec<[bool; 3]> {
     edge_kinds.iter().map(|k| k.map(|e| e != EdgeKind::Smooth)).collect()
+}
+
+/// The default limit of [`bulging_edges`]: a smooth edge whose curve at α = 1 would stand off its
+/// chord by more than this many times the height of a triangle beside it (the triangle's altitude
+/// onto the edge) is kept straight.
+pub const BULGE_LIMIT: f32 = 2.0;
+
+/// How far the curve of edge `(p_i, p_j)` with end normals `n_i`, `n_j` stands off its chord
+/// at α = 1: half the offset of its Bézier control point `(π_i(p_j) + π_j(p_i)) / 2` from the
+/// edge's midpoint (the quadratic's value at its middle). Symmetric in `i`, `j`, bit for bit.
+pub fn edge_bulge(pi: Vec3, pj: Vec3, ni: Vec3, nj: Vec3) -> f64 {
+    let (pi, pj, ni, nj) = (pi.as_dvec3(), pj.as_dvec3(), ni.as_dvec3(), nj.as_dvec3());
+    // π_i(p_j) - p_j = -((p_j - p_i)·n_i) n_i and π_j(p_i) - p_i = ((p_j - p_i)·n_j) n_j.
+    let e = pj - pi;
+    let offset = (nj * e.dot(nj) - ni * e.dot(ni)) * 0.5;
+    0.5 * offset.length()
+}
+
+/// Per triangle edge: whether a smooth edge balloons, so that Phong tessellation must keep it
+/// straight. An edge balloons when its curve at α = 1 ([`edge_bulge`]) stands off its chord by
+/// more than `limit` times the altitude onto it of either triangle beside it: a long sliver
+/// whose end normals lean apart (computed normals beside a bevel, or a file's wild normals)
+/// would swell many of its widths off its flat triangle. The decision is per edge (the larger
+/// ratio of the two triangles), so both patches sharing the edge keep it straight and the mesh
+/// stays watertight. A `limit` that is not finite and positive marks nothing.
+pub fn bulging_edges(
+    positions: &[Vec3],
+    normals: &[Vec3],
+    indices: &[[u32; 3]],
+    edge_kinds: &[[EdgeKind; 3]],
+    limit: f32,
+) -> Vec<[bool; 3]> {
+    let mut out = vec![[false; 3]; indices.len()];
+    if !(limit.is_finite() && limit > 0.0) {
+        return out;
+    }
+    // Compute, per smooth edge (its two vertex ids), the largest bulge over altitude beside it.
+    let mut worst: HashMap<(u32, u32), f64> = HashMap::new();
+    for (t, tri) in indices.iter().enumerate() {
+        let p = tri.map(|i| positions[i as usize]);
+        let area2 = (p[1] - p[0]).as_dvec3().cross((p[2] - p[0]).as_dvec3()).length();
+        for k in (0..3).filter(|&k| edge_kinds[t][k] == EdgeKind::Smooth) {
+            let (a, b) = (tri[k], tri[(k + 1) % 3]);
+            let (pa, pb) = (positions[a as usize], positions[b as usize]);
+            let bulge = edge_bulge(pa, pb, normals[a as usize], normals[b as usize]);
+            let altitude = area2 / pa.as_dvec3().distance(pb.as_dvec3());
+            let ratio = if altitude > 0.0 { bulge / altitude } else { f64::INFINITY };
+            let w = worst.entry((a.min(b), a.max(b))).or_insert(0.0);
+            *w = w.max(if ratio.is_nan() { f64::INFINITY } else { ratio });
+        }
+    }
+    // Mark every side of the edges over the limit.
+    for (t, tri) in indices.iter().enumerate() {
+        for k in (0..3).filter(|&k| edge_kinds[t][k] == EdgeKind::Smooth) {
+            let (a, b) = (tri[k], tri[(k + 1) % 3]);
+            out[t][k] = worst[&(a.min(b), a.max(b))] > limit as f64;
+        }
+    }
+    out
+}
+
+/// Mark the smooth edges that balloon ([`bulging_edges`] at `limit`) as
+/// [`EdgeKind::Straightened`]; returns how many edges (each counted once).
+pub fn straighten_bulging_edges(
+    positions: &[Vec3],
+    normals: &[Vec3],
+    indices: &[[u32; 3]],
+    edge_kinds: &mut [[EdgeKind; 3]],
+    limit: f32,
+) -> usize {
+    let bulging = bulging_edges(positions, normals, indices, edge_kinds, limit);
+    let mut sides = 0;
+    for (kinds, b) in edge_kinds.iter_mut().zip(bulging) {
+        for k in (0..3).filter(|&k| b[k]) {
+            kinds[k] = EdgeKind::Straightened;
+            sides += 1;
+        }
+    }
+    sides / 2
 }
 
 /// The default angle (radians) within which two unit normals at one position count as the same

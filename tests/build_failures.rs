@@ -13,7 +13,11 @@ fn build_script() -> PathBuf {
     let newest = std::fs::read_dir(&build)
         .unwrap()
         .flatten()
-        .filter(|e| e.file_name().to_string_lossy().starts_with("phongrt-"))
+        // phongrt-HASH, not phongrt-capi-HASH or phongrt-cli-HASH (the other packages' scripts).
+        .filter(|e| {
+            let name = e.file_name().to_string_lossy().into_owned();
+            name.strip_prefix("phongrt-").is_some_and(|h| h.chars().all(|c| c.is_ascii_hexdigit()))
+        })
         .map(|e| e.path().join("build-script-build"))
         .filter(|p| p.is_file())
         .max_by_key(|p| p.metadata().and_then(|m| m.modified()).ok());

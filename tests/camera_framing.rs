@@ -7,8 +7,8 @@ use std::path::Path;
 use glam::Vec3;
 use phongrt::embree::{Device, Ray};
 use phongrt::scene::{load_obj, LoadOptions};
-use phongrt_render::camera::default_view;
-use phongrt_render::{Camera, ObjectMode, ObjectSettings, World};
+use phongrt_render::camera::{default_view, default_view_with, shadow_points, DefaultViewOptions};
+use phongrt_render::{Camera, Ground, ObjectMode, ObjectSettings, World};
 
 /// The corpus folder: $PHONGRT_CORPUS, else ../shared/corpus beside the project.
 fn corpus() -> std::path::PathBuf {
@@ -156,4 +156,157 @@ fn a_given_up_axis_is_the_cameras_and_the_key_light_is_at_its_upper_left() {
     let l = c.key_light_direction();
     let right = (-back).cross(c.up).normalize();
     assert!(l.dot(back) > 0.0 && l.dot(right) < 0.0 && l.dot(c.up) > 0.0, "key light {l}");
+}
+
+/// The default view with or without a ground (and front cues, the default) of `input`.
+fn view_on_ground(input: &phongrt::scene::Scene, ground: bool, front_cues: bool, aspect: f32) -> Camera {
+    let options = DefaultViewOptions { ground, front_cues, ..DefaultViewOptions::default() };
+    default_view_with(input, None, 0.0, None, aspect, options).0
+}
+
+/// The fraction of the model's vertices' shadows on the ground (at the bottom of its bounds,
+/// under the camera's key light) whose projection lies inside the `w`×`h` frame.
+fn shadow_inside(input: &phongrt::scene::Scene, camera: &Camera, w: u32, h: u32) -> f32 {
+    let up = camera.up.normalize();
+    let (lo, hi) = input.bounds();
+    let bottom = [lo, hi].iter().map(|c| c.dot(up)).fold(f32::INFINITY, f32::min);
+    let points: Vec<Vec3> = input.meshes.iter().flat_map(|m| m.positions.iter().copied()).collect();
+    let shadows = shadow_points(&points, up, bottom, camera.key_light_direction());
+    assert_eq!(shadows.len(), points.len());
+    let frame = camera.frame(w as f32 / h as f32).unwrap();
+    let inside = shadows
+        .iter()
+        .filter(|s| {
+            frame
+                .project(**s, w, h)
+                .is_some_and(|(x, y)| (0.0..=w as f32).contains(&x) && (0.0..=h as f32).contains(&y))
+        })
+        .count();
+    inside as f32 / shadows.len() as f32
+}
+
+#[test]
+fn the_default_view_on_a_ground_frames_the_cast_shadow() {
+    let mut models = vec![
+        (
+            "sphere_lowpoly",
+            load_obj(&root().join("scenes/sphere_lowpoly.obj"), &LoadOptions::default()).unwrap(),
+        ),
+        ("wuson", load_obj(&root().join("scenes/wuson/WusonOBJ.obj"), &LoadOptions::default()).unwrap()),
+        ("mug", load_obj(&root().join("scenes/mug/mug.obj"), &LoadOptions::default()).unwrap()),
+    ];
+    for rel in ["teapot/teapot.obj", "spider/spider.obj"] {
+        let path = corpus().join(rel);
+        if path.exists() {
+            models.push((rel, load_obj(&path, &LoadOptions::default()).unwrap()));
+        }
+    }
+    let mut cut_before = 0;
+    for (name, input) in &models {
+        for (w, h) in [(W, H), (120, 320)] {
+            let aspect = w as f32 / h as f32;
+            let new = shadow_inside(input, &view_on_ground(input, true, true, aspect), w, h);
+            let old = shadow_inside(input, &view_on_ground(input, false, true, aspect), w, h);
+            println!(
+                "{name} at {w}x{h}: shadow inside the frame {new:.3} (the model alone framed: {old:.3})"
+            );
+            assert_eq!(new, 1.0, "{name} at {w}x{h}");
+            cut_before += (old < 1.0) as usize;
+        }
+    }
+    assert!(cut_before > 0, "no view framed on the model alone cut its shadow: the test lost its power");
+}
+
+#[test]
+fn the_ground_is_large_enough_that_the_default_view_sees_no_far_edge() {
+    // A portrait frame puts the camera far off, where a ground of 20 bounds diagonals ended
+    // inside the view (its far edge showed as a band of background across the top).
+    let input = load_obj(&root().join("scenes/sphere_lowpoly.obj"), &LoadOptions::default()).unwrap();
+    let (w, h) = (48u32, 128u32);
+    let camera = view_on_ground(&input, true, true, w as f32 / h as f32);
+    let device = Device::new().unwrap();
+    let mut top_background = Vec::new();
+    for fit in [true, false] {
+        let g = Ground { up: camera.up, ..Ground::default() };
+        let radius = fit.then(|| g.radius_for_view(input.bounds(), &camera, w as f32 / h as f32));
+        let world = World::from_scene_with_ground(&device, &input, Some(Ground { radius, ..g }), |_, _| {
+            ObjectSettings::new(ObjectMode::Flat)
+        })
+        .unwrap();
+        let frame = camera.frame(w as f32 / h as f32).unwrap();
+        let misses = (0..w)
+            .filter(|&x| {
+                world
+                    .scene
+                    .intersect1(Ray::new(frame.eye, frame.direction(x as f32 + 0.5, 0.5, w, h)))
+                    .is_none()
+            })
+            .count();
+        top_background.push(misses);
+    }
+    println!(
+        "top-row rays that miss the ground: sized to the view {}, 20 diagonals {}",
+        top_background[0], top_background[1]
+    );
+    assert_eq!(top_background[0], 0);
+    assert!(top_background[1] > 0, "the 20-diagonal ground shows no edge here: the test lost its power");
+}
+
+#[test]
+fn the_spider_shows_its_face_and_the_mug_its_handle() {
+    let spider = corpus().join("spider/spider.obj");
+    if spider.exists() {
+        let input = load_obj(&spider, &LoadOptions::default()).unwrap();
+        let opts = DefaultViewOptions::default();
+        let (_, det) = default_view_with(&input, None, 0.0, None, 4.0 / 3.0, opts);
+        // Its objects "Kopf" (head) and "Auge" (eye) lie towards -x.
+        assert!(det.front.dot(-Vec3::X) > 0.95, "spider front {}", det.front);
+        let off = DefaultViewOptions { front_cues: false, ..opts };
+        assert_eq!(default_view_with(&input, None, 0.0, None, 4.0 / 3.0, off).1.front, Vec3::Z);
+    }
+    // The mug's handle sticks out towards +y: the front turns a quarter from it, and the camera
+    // sees the handle 60 degrees off its line of sight, to the right.
+    let input = load_obj(&root().join("scenes/mug/mug.obj"), &LoadOptions::default()).unwrap();
+    let (cam, det) = default_view(&input, None, 0.0, None, 4.0 / 3.0);
+    assert!(det.front.dot(Vec3::X) > 0.99, "mug front {}", det.front);
+    let back = (cam.eye - cam.look_at).normalize();
+    let horiz = Vec3::new(back.x, back.y, 0.0).normalize();
+    let right = (-back).cross(cam.up).normalize();
+    assert!((horiz.dot(Vec3::Y) - 0.5).abs() < 0.01, "the handle is not 60 degrees off the view: {horiz}");
+    assert!(right.dot(Vec3::Y) > 0.8, "the handle is not on the right: {right}");
+    let off = DefaultViewOptions { front_cues: false, ..DefaultViewOptions::default() };
+    assert_eq!(default_view_with(&input, None, 0.0, None, 4.0 / 3.0, off).1.front, -Vec3::Y);
+}
+
+fn root() -> std::path::PathBuf {
+    Path::new(env!("CARGO_MANIFEST_DIR")).to_path_buf()
+}
+
+#[test]
+fn a_given_light_casts_the_framed_shadow() {
+    // A scene file's directional light (scenes/figure1_sphere.toml's) replaces the key light.
+    let input = load_obj(&root().join("scenes/sphere_lowpoly.obj"), &LoadOptions::default()).unwrap();
+    let light = Vec3::new(-0.5, 0.7, 0.6).normalize();
+    let (w, h) = (120u32, 320u32);
+    let inside = |ground| {
+        let opts = DefaultViewOptions { ground, ground_light: Some(light), ..DefaultViewOptions::default() };
+        let camera = default_view_with(&input, None, 0.0, None, w as f32 / h as f32, opts).0;
+        let frame = camera.frame(w as f32 / h as f32).unwrap();
+        let points: Vec<Vec3> = input.meshes[0].positions.clone();
+        let bottom = input.bounds().0.y;
+        let shadows = shadow_points(&points, Vec3::Y, bottom, light);
+        let n = shadows
+            .iter()
+            .filter(|s| {
+                frame
+                    .project(**s, w, h)
+                    .is_some_and(|(x, y)| (0.0..=w as f32).contains(&x) && (0.0..=h as f32).contains(&y))
+            })
+            .count();
+        n as f32 / shadows.len() as f32
+    };
+    let (with, without) = (inside(true), inside(false));
+    println!("shadow of the given light inside the frame: {with:.3} (model alone framed: {without:.3})");
+    assert_eq!(with, 1.0);
+    assert!(without < 1.0);
 }

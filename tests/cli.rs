@@ -117,6 +117,44 @@ fn fails_with(args: &[&str], needle: &str) {
 }
 
 /// Bad usage (a flag's value): exit status 2.
+#[test]
+fn info_counts_straightened_edges_and_bulge_limit_inf_keeps_them_curved() {
+    phongrt().args(["info", "scenes/sliver_coin.obj"]).assert().success().stdout(
+        predicate::str::contains("straightened: 720 smooth edges")
+            .and(predicate::str::contains("deviation: largest patch offset from its flat triangle 0.3")),
+    );
+    phongrt()
+        .args(["info", "scenes/sliver_coin.obj", "--bulge-limit", "inf"])
+        .assert()
+        .success()
+        .stdout(predicate::str::contains("straightened").not().and(predicate::str::contains("triangle 3.7")));
+    fails_usage(&["info", "scenes/sliver_coin.obj", "--bulge-limit", "0"], "--bulge-limit 0");
+}
+
+#[test]
+fn nan_normals_render_with_a_warning_naming_the_line() {
+    let dir = tempfile::tempdir().unwrap();
+    let obj = dir.path().join("nan.obj");
+    std::fs::write(&obj, "v 0 0 0\nv 1 0 0\nv 0 1 0\nvn nan 0 1\nf 1//1 2//1 3//1\n").unwrap();
+    let out = dir.path().join("nan.png");
+    let a = phongrt()
+        .args([
+            "render",
+            obj.to_str().unwrap(),
+            "--width",
+            "32",
+            "--height",
+            "24",
+            "-o",
+            out.to_str().unwrap(),
+        ])
+        .assert()
+        .success();
+    let err = String::from_utf8(a.get_output().stderr.clone()).unwrap();
+    assert!(err.contains("nan.obj:4: 1 `vn` lines with a coordinate that is not a finite number"), "{err}");
+    assert!(out.is_file());
+}
+
 fn fails_usage(args: &[&str], needle: &str) {
     fails_with_code(args, needle, 2)
 }

@@ -227,8 +227,8 @@ fn stitch_refuses_a_tile_whose_texture_changed_between_renders() {
 }
 
 // Issue 24: stitch held every tile and the frame in memory and ignored PHONGRT_MAX_MEMORY (the
-// 32768² frame would have needed about 57 GB). EXR tiles are still held whole, so a stitch
-// beyond the budget is refused, from the headers, before any pixel is read.
+// 32768² frame would have needed about 57 GB). A stitch whose streamed rows need more than the
+// budget is refused, from the headers, before any pixel is read.
 #[test]
 fn exr_stitch_beyond_the_memory_budget_is_refused() {
     let dir = tempfile::tempdir().unwrap();
@@ -242,6 +242,41 @@ fn exr_stitch_beyond_the_memory_budget_is_refused() {
     assert_eq!(err.lines().count(), 1, "{err}");
     assert!(!out.exists());
     phongrt().arg("stitch").arg(&out).args(&tiles).env("PHONGRT_MAX_MEMORY", "10000000").assert().success();
+}
+
+// EXR tiles are streamed block by block too: a frame whose tiles and image alone would need
+// 72 bytes a pixel (the held-whole stitch's estimate: 19 MB here) stitches within 4 MB, and
+// its pixels are the whole render's, bit for bit.
+#[test]
+fn exr_stitch_streams_within_a_small_memory_budget() {
+    let dir = tempfile::tempdir().unwrap();
+    let size = ["--width", "640", "--height", "420", "--alpha-channel"];
+    let render = |out: &Path, extra: &[&str]| {
+        phongrt()
+            .args(["render", "scenes/sphere_lowpoly.obj", "-q"])
+            .args(size)
+            .args(extra)
+            .arg("-o")
+            .arg(out)
+            .current_dir(common::root())
+            .assert()
+            .success();
+    };
+    let tiles: Vec<PathBuf> = (0..5)
+        .map(|i| {
+            let t = dir.path().join(format!("t_{i}.exr"));
+            render(&t, &["--tile", &format!("{i}/5")]);
+            t
+        })
+        .collect();
+    let out = dir.path().join("out.exr");
+    phongrt().arg("stitch").arg(&out).args(&tiles).env("PHONGRT_MAX_MEMORY", "4000000").assert().success();
+    let whole = dir.path().join("whole.exr");
+    render(&whole, &[]);
+    let bits = |p: &Path| -> Vec<u32> {
+        image::open(p).unwrap().to_rgba32f().into_raw().into_iter().map(f32::to_bits).collect()
+    };
+    assert_eq!(bits(&out), bits(&whole));
 }
 
 // PNG tiles are streamed row by row: the same frame stitches within a budget of 2 MB, and the

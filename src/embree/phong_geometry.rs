@@ -9,7 +9,10 @@ use glam::Vec3;
 
 use super::device::EmbreeError;
 use super::scene::{GeometryOptions, Scene};
-use super::user_geometry::{new_user_geometry, OriginPrim, PrimHit, UserData, UserPrimitives};
+use super::user_geometry::{
+    new_user_geometry, OriginPrim, PacketRays, PrimHit, UserData, UserPrimitives, MAX_PACKET,
+};
+use crate::phong::intersect::{LaneRays, LANES};
 use crate::phong::mesh::PhongMesh;
 use crate::sys;
 
@@ -46,6 +49,42 @@ impl UserPrimitives for PhongMesh {
         tfar: f32,
     ) -> Option<PrimHit> {
         self.intersect_primitive_from(item, origin, org, dir, tnear, tfar, |_| {})
+    }
+
+    /// The packet's lanes in blocks of [`LANES`], each block tested together
+    /// ([`PhongMesh::intersect_lanes`]); a packet of rays that know their origin (shadow rays)
+    /// lane by lane: there the lane kernel measured more instructions per ray than the scalar
+    /// path (sphere-120 +7%, the head -0.6%; scripts/instructions.sh), its lanes mostly turned
+    /// away by the hull or settled by the origin skip.
+    fn intersect_packet(&self, item: u32, rays: &PacketRays, hits: &mut [Option<PrimHit>; MAX_PACKET]) {
+        if rays.active_lanes().any(|i| rays.origin[i].is_some()) {
+            for i in rays.active_lanes() {
+                let (org, dir, tnear, tfar) = rays.ray(i);
+                hits[i] = self.intersect_primitive_from(item, rays.origin[i], org, dir, tnear, tfar, |_| {});
+            }
+            return;
+        }
+        for start in (0..rays.n.min(MAX_PACKET)).step_by(LANES) {
+            let lane = |i: usize| start + i;
+            let active: [bool; LANES] = std::array::from_fn(|i| lane(i) < rays.n && rays.active[lane(i)]);
+            if !active.iter().any(|&a| a) {
+                continue;
+            }
+            // Lanes past the packet's width read as inactive zeros (their answers are dropped).
+            let field =
+                |a: &[f32; MAX_PACKET]| std::array::from_fn(|i| a.get(lane(i)).copied().unwrap_or(0.0));
+            let block = LaneRays {
+                org: [field(&rays.org[0]), field(&rays.org[1]), field(&rays.org[2])],
+                dir: [field(&rays.dir[0]), field(&rays.dir[1]), field(&rays.dir[2])],
+                tmin: field(&rays.tnear),
+                tmax: field(&rays.tfar),
+            };
+            let origin = std::array::from_fn(|i| rays.origin.get(lane(i)).copied().flatten());
+            let found = self.intersect_lanes(item, &block, active, &origin);
+            for i in (0..LANES).filter(|&i| active[i]) {
+                hits[lane(i)] = found[i];
+            }
+        }
     }
 }
 

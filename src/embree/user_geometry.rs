@@ -102,6 +102,62 @@ pub trait UserPrimitives: Send + Sync + 'static {
         let _ = origin;
         self.intersect(prim, org, dir, tnear, tfar)
     }
+
+    /// [`UserPrimitives::intersect_from`] for every active lane of a packet meeting `prim`:
+    /// lane `i`'s nearest hit in `hits[i]` (inactive lanes are left as they are). The packet
+    /// callbacks (`rtcIntersect4/8/16`, `rtcOccluded4/8/16`) call this once per primitive; the
+    /// default tests lane by lane, and an implementation may test the lanes together, with the
+    /// same answers.
+    #[inline]
+    fn intersect_packet(&self, prim: u32, rays: &PacketRays, hits: &mut [Option<PrimHit>; MAX_PACKET]) {
+        for lane in rays.active_lanes() {
+            let (org, dir, tnear, tfar) = rays.ray(lane);
+            hits[lane] = self.intersect_from(prim, rays.origin[lane], org, dir, tnear, tfar);
+        }
+    }
+}
+
+/// The widest packet Embree passes to the callbacks (`rtcIntersect16`).
+pub const MAX_PACKET: usize = 16;
+
+/// The rays of a packet as the packet callbacks hand them to
+/// [`UserPrimitives::intersect_packet`]: lanes `0..n`, structure of arrays, `active[i]` where
+/// Embree's valid mask has lane `i` (the other lanes' fields are zero).
+#[derive(Clone, Copy, Debug)]
+pub struct PacketRays {
+    /// The packet's width (Embree's N).
+    pub n: usize,
+    /// Which lanes are to be tested.
+    pub active: [bool; MAX_PACKET],
+    /// The origins' x, y and z.
+    pub org: [[f32; MAX_PACKET]; 3],
+    /// The directions' x, y and z.
+    pub dir: [[f32; MAX_PACKET]; 3],
+    /// The open intervals' lower ends.
+    pub tnear: [f32; MAX_PACKET],
+    /// The open intervals' upper ends.
+    pub tfar: [f32; MAX_PACKET],
+    /// Where each lane's ray starts on this geometry, if known (occlusion rays of
+    /// [`CommittedScene::occluded8_rays_from`]), as [`UserPrimitives::intersect_from`] takes it.
+    pub origin: [Option<OriginPrim>; MAX_PACKET],
+}
+
+impl PacketRays {
+    /// The indices of the active lanes, in order.
+    pub fn active_lanes(&self) -> impl Iterator<Item = usize> + '_ {
+        (0..self.n.min(MAX_PACKET)).filter(|&i| self.active[i])
+    }
+
+    /// Lane `i`'s ray: `(org, dir, tnear, tfar)`.
+    pub fn ray(&self, i: usize) -> (Vec3, Vec3, f32, f32) {
+        let (o, d) = (&self.org, &self.dir);
+        (
+            Vec3::new(o[0][i], o[1][i], o[2][i]),
+            Vec3::new(d[0][i], d[1][i], d[2][i]),
+            self.tnear[i],
+            self.tfar[i],
+        )
+    }
 }
 
 /// Shared primitives: the scene holds one reference, the caller keeps others (for shading
@@ -131,6 +187,11 @@ impl<T: UserPrimitives> UserPrimitives for Arc<T> {
         tfar: f32,
     ) -> Option<PrimHit> {
         (**self).intersect_from(prim, origin, org, dir, tnear, tfar)
+    }
+
+    #[inline]
+    fn intersect_packet(&self, prim: u32, rays: &PacketRays, hits: &mut [Option<PrimHit>; MAX_PACKET]) {
+        (**self).intersect_packet(prim, rays, hits)
     }
 }
 
@@ -270,7 +331,7 @@ pub fn user_hits_out_of_range() -> u64 {
 const MAX_CANDIDATES: usize = 32;
 
 /// The largest packet Embree passes (rtcIntersect16).
-const MAX_N: usize = 16;
+const MAX_N: usize = MAX_PACKET;
 
 /// Per-lane valid mask with only `lane` active, for invoking filters on one candidate.
 fn lane_mask(n: usize, lane: usize) -> [i32; MAX_N] {
@@ -335,6 +396,8 @@ unsafe extern "C" fn intersect_callback<T: UserPrimitives>(args: *const sys::RTC
 /// a cluster's 8 patches, the resultant of a line and a quadratic patch being a quartic). A
 /// rejection restores the lane's `tfar`, so its value read here holds. `origin(lane)` is where
 /// the lane's ray starts on this geometry, if known (occlusion rays of [`CommittedScene::occluded1_from`]).
+/// One lane is tested alone; a packet's first candidates come from
+/// [`UserPrimitives::intersect_packet`], all its lanes (and their origins) at once.
 ///
 /// # Safety
 /// `ray` must be an RTCRayN (or the ray part of an RTCRayHitN) of width `valid.len()`.
@@ -347,29 +410,87 @@ unsafe fn for_each_candidate<T: UserPrimitives>(
     origin: impl Fn(usize) -> Option<OriginPrim>,
     mut offer: impl FnMut(usize, &LaneRay, &PrimHit) -> bool,
 ) {
-    for (lane, &v) in valid.iter().enumerate() {
-        if v != -1 {
-            continue;
+    if valid.len() == 1 {
+        if valid[0] == -1 {
+            // SAFETY: lane 0 < n = 1 of an RTCRayN (this function's contract).
+            let r = unsafe { read_ray(ray, 0) };
+            let from = origin(0);
+            let first = data.intersect_from(prim, from, r.org, r.dir, r.tnear, r.tfar);
+            offer_candidates(data, prim, 0, from, &r, first, &mut offer);
         }
-        // SAFETY: lane < n and the layout is RTCRayN of width n (this function's contract).
-        let r = unsafe { read_ray(ray, lane) };
-        let from = origin(lane);
-        let mut tnear = r.tnear;
-        for _ in 0..MAX_CANDIDATES {
-            let Some(h) = data.intersect_from(prim, from, r.org, r.dir, tnear, r.tfar) else { break };
-            // Embree takes the hit's t as the ray's new tfar: one outside the interval asked
-            // for (or NaN) would be a hit behind the origin or past a nearer one. Refused, and
-            // counted ([`user_hits_out_of_range`]).
-            if !(h.t > tnear && h.t < r.tfar) {
-                OUT_OF_RANGE.fetch_add(1, Ordering::Relaxed);
-                break;
-            }
-            if offer(lane, &r, &h) {
-                break;
-            }
-            tnear = h.t;
+        return;
+    }
+    // SAFETY: the layout is RTCRayN of width valid.len() (this function's contract).
+    let mut rays = unsafe { read_packet(ray, valid) };
+    for lane in 0..rays.n {
+        if rays.active[lane] {
+            rays.origin[lane] = origin(lane);
         }
     }
+    let mut hits = [None; MAX_N];
+    data.intersect_packet(prim, &rays, &mut hits);
+    for lane in rays.active_lanes() {
+        let (org, dir, tnear, tfar) = rays.ray(lane);
+        let r = LaneRay { org, dir, tnear, tfar };
+        offer_candidates(data, prim, lane, rays.origin[lane], &r, hits[lane], &mut offer);
+    }
+}
+
+/// Offer `first`, lane `lane`'s nearest hit on `prim`, then (while the filters reject) the
+/// next ones beyond it, as [`for_each_candidate`] describes.
+#[inline(always)]
+fn offer_candidates<T: UserPrimitives>(
+    data: &T,
+    prim: u32,
+    lane: usize,
+    from: Option<OriginPrim>,
+    r: &LaneRay,
+    first: Option<PrimHit>,
+    offer: &mut impl FnMut(usize, &LaneRay, &PrimHit) -> bool,
+) {
+    let (mut next, mut tnear) = (first, r.tnear);
+    for _ in 0..MAX_CANDIDATES {
+        let Some(h) = next else { break };
+        // Embree takes the hit's t as the ray's new tfar: one outside the interval asked for
+        // (or NaN) would be a hit behind the origin or past a nearer one. Refused, and counted
+        // ([`user_hits_out_of_range`]).
+        if !(h.t > tnear && h.t < r.tfar) {
+            OUT_OF_RANGE.fetch_add(1, Ordering::Relaxed);
+            break;
+        }
+        if offer(lane, r, &h) {
+            break;
+        }
+        tnear = h.t;
+        next = data.intersect_from(prim, from, r.org, r.dir, h.t, r.tfar);
+    }
+}
+
+/// The rays of a packet of width `valid.len()` (at most [`MAX_N`]), the lanes `valid` marks
+/// active (Embree's `-1`).
+///
+/// # Safety
+/// `ray` must be an RTCRayN of width `valid.len()`.
+unsafe fn read_packet(ray: Soa, valid: &[i32]) -> PacketRays {
+    let n = valid.len().min(MAX_N);
+    let mut p = PacketRays {
+        n,
+        active: [false; MAX_N],
+        org: [[0.0; MAX_N]; 3],
+        dir: [[0.0; MAX_N]; 3],
+        tnear: [0.0; MAX_N],
+        tfar: [0.0; MAX_N],
+        origin: [None; MAX_N],
+    };
+    for (lane, _) in valid.iter().enumerate().take(n).filter(|(_, &v)| v == -1) {
+        // SAFETY: lane < n and the layout is RTCRayN of width n (this function's contract).
+        let r = unsafe { read_ray(ray, lane) };
+        p.active[lane] = true;
+        (p.org[0][lane], p.org[1][lane], p.org[2][lane]) = (r.org.x, r.org.y, r.org.z);
+        (p.dir[0][lane], p.dir[1][lane], p.dir[2][lane]) = (r.dir.x, r.dir.y, r.dir.z);
+        (p.tnear[lane], p.tfar[lane]) = (r.tnear, r.tfar);
+    }
+    p
 }
 
 /// The body of [`intersect_callback`] for packet width `n`.

@@ -91,9 +91,9 @@ impl Cluster {
 /// or `+inf` where it misses it (and in unused lanes). Conservative: a ray that meets a
 /// member's surface in the interval enters its prism no later than the hit.
 ///
-/// Written as plain loops over the 8 lanes so that the compiler vectorises them: SSE2 in
-/// [`hull_entries`], AVX in [`hull_entries_avx`]. Both give the same answers (no fused
-/// operations: Rust never contracts `a * b + c`).
+/// Written as plain loops over the 8 lanes so that the compiler vectorises them (SSE2 on the
+/// baseline target; the mesh's caller also compiles it for AVX, chosen at run time): every
+/// version gives the same answers (no fused operations: Rust never contracts `a * b + c`).
 #[inline(always)]
 pub fn hull_entries(
     h: &ClusterHull,
@@ -129,23 +129,6 @@ pub fn hull_entries(
         out[i] = if t0[i] <= t1[i] { t0[i] } else { f32::INFINITY };
     }
     out
-}
-
-/// [`hull_entries`] compiled for AVX (8 lanes in one register).
-///
-/// # Safety
-/// The CPU must have AVX (`is_x86_feature_detected!("avx")`); the function itself is plain
-/// safe Rust.
-#[cfg(target_arch = "x86_64")]
-#[target_feature(enable = "avx")]
-pub fn hull_entries_avx(
-    h: &ClusterHull,
-    org: [f32; 3],
-    dir: [f32; 3],
-    tnear: f32,
-    tfar: f32,
-) -> [f32; CLUSTER_SIZE] {
-    hull_entries(h, org, dir, tnear, tfar)
 }
 
 /// Group the triangles `0..centroids.len()` whose `keep` is true into clusters of at most

@@ -4,10 +4,12 @@
 //! [`crate::embree::phong_geometry`].
 
 use glam::{DVec3, Vec3};
+use multiversion::multiversion;
 
 use crate::embree::user_geometry::{OriginPrim, PrimHit};
 use crate::phong::cluster::{group_by_position, hull_entries, Cluster, ClusterHull, CLUSTER_SIZE};
 use crate::phong::convexity::{audit, convexity, leaves_patch, Convexity};
+use crate::phong::intersect::{certified_lanes, LaneDecision, LaneRays, LANES};
 use crate::phong::{
     intersect_in_hull_traced, intersect_traced, Method, Patch, PatchHit, ShadingNormal, TestOutcome, V3,
 };
@@ -243,17 +245,11 @@ fn build_patches(
 }
 
 /// Where the ray enters each member's prism of a cluster (see
-/// [`crate::phong::cluster::hull_entries`]), 8 lanes at once where the CPU has AVX.
-#[inline(always)]
+/// [`crate::phong::cluster::hull_entries`]), 8 lanes at once in one register where the CPU has
+/// AVX (chosen at run time by the `multiversion` crate), in two SSE2 registers otherwise.
+#[multiversion(targets("x86_64+avx"))]
 fn cluster_entries(h: &ClusterHull, org: Vec3, dir: Vec3, tnear: f32, tfar: f32) -> [f32; CLUSTER_SIZE] {
-    let (o, d) = (org.to_array(), dir.to_array());
-    #[cfg(target_arch = "x86_64")]
-    if std::arch::is_x86_feature_detected!("avx") {
-        // SAFETY: `hull_entries_avx` only needs the CPU to have AVX, which was just detected
-        // at run time (it is plain Rust, compiled with AVX enabled).
-        return unsafe { crate::phong::cluster::hull_entries_avx(h, o, d, tnear, tfar) };
-    }
-    hull_entries(h, o, d, tnear, tfar)
+    hull_entries(h, org.to_array(), dir.to_array(), tnear, tfar)
 }
 
 impl PhongMesh {
@@ -557,6 +553,66 @@ impl PhongMesh {
             audit::record(prim, intersect_traced(p, org, dir, tnear, tmax, self.method).0.map(|h| h.t));
         }
         true
+    }
+
+    /// Whether [`PhongMesh::intersect_lanes`] tests lanes together: one patch per primitive
+    /// and [`Method::Certified`] (clusters and the other methods go lane by lane).
+    pub fn tests_lanes_together(&self) -> bool {
+        self.clusters.is_empty() && self.method == Method::Certified
+    }
+
+    /// [`PhongMesh::intersect_primitive_from`] for the lanes of `rays` where `active`, lane `i`
+    /// starting at `origin[i]` when given: all of them at once (see [`certified_lanes`]) when
+    /// [`PhongMesh::tests_lanes_together`], lane by lane otherwise, with the same answers
+    /// either way. Lanes the lane kernel leaves unsure are solved by the scalar path, the hull
+    /// already passed; a lane whose origin patch [`leaves_patch`] settles is no lane of the
+    /// kernel.
+    pub fn intersect_lanes(
+        &self,
+        item: u32,
+        rays: &LaneRays,
+        active: [bool; LANES],
+        origin: &[Option<OriginPrim>; LANES],
+    ) -> [Option<PrimHit>; LANES] {
+        let mut hits = [None; LANES];
+        let ray = |i: usize| {
+            let (o, d) = (&rays.org, &rays.dir);
+            (Vec3::new(o[0][i], o[1][i], o[2][i]), Vec3::new(d[0][i], d[1][i], d[2][i]))
+        };
+        if !self.tests_lanes_together() {
+            for i in (0..LANES).filter(|&i| active[i]) {
+                let (o, d) = ray(i);
+                hits[i] =
+                    self.intersect_primitive_from(item, origin[i], o, d, rays.tmin[i], rays.tmax[i], |_| {});
+            }
+            return hits;
+        }
+        let Some(p) = self.patches.get(item as usize) else { return hits };
+        // Compute the lanes to test: active, and not settled by their origin (a zero direction
+        // turns a lane away as bad input inside the kernel).
+        let mut block = *rays;
+        let live: [bool; LANES] = std::array::from_fn(|i| {
+            let (o, d) = ray(i);
+            active[i]
+                && !self.leaves_origin(item, origin[i], V3::from(o), V3::from(d), rays.tmin[i], rays.tmax[i])
+        });
+        for i in (0..LANES).filter(|&i| !live[i]) {
+            (block.dir[0][i], block.dir[1][i], block.dir[2][i]) = (0.0, 0.0, 0.0);
+        }
+        let answers = certified_lanes(p, &block);
+        for i in (0..LANES).filter(|&i| live[i]) {
+            let hit = match answers.decision[i] {
+                LaneDecision::Miss => None,
+                LaneDecision::Hit => answers.hit(i),
+                LaneDecision::Unsure => {
+                    let (o, d) = ray(i);
+                    let (lo, hi) = (rays.tmin[i], rays.tmax[i]);
+                    intersect_in_hull_traced(p, V3::from(o), V3::from(d), lo, hi, self.method).0
+                }
+            };
+            hits[i] = hit.map(|h| self.prim_hit(p, item, h));
+        }
+        hits
     }
 
     /// The hit Embree is given for `h` on patch `p` (triangle `prim`).

@@ -322,6 +322,9 @@ pub struct LoadStats {
     pub zero_normals_replaced: usize,
     /// Triangles dropped as duplicates of another (same welded positions, either winding).
     pub duplicates_dropped: usize,
+    /// Smooth edges kept straight because they would balloon ([`EdgeKind::Straightened`],
+    /// [`LoadOptions::bulge_limit`]), counted once.
+    pub straightened_edges: usize,
 }
 
 /// A loaded scene.
@@ -354,6 +357,11 @@ pub struct LoadOptions {
     /// Drop triangles that repeat an earlier one's three welded positions (either winding),
     /// with a warning; `false` keeps them (and their non-manifold edges).
     pub drop_duplicate_faces: bool,
+    /// Smooth edges whose curve at α = 1 would stand off the chord by more than this many times
+    /// the altitude onto them of a triangle beside them are kept straight
+    /// ([`crate::mesh::bulging_edges`]); infinity (or 0) keeps every smooth edge curved, the rule
+    /// before.
+    pub bulge_limit: f32,
 }
 
 impl Default for LoadOptions {
@@ -363,6 +371,7 @@ impl Default for LoadOptions {
             weld_tolerance: 1e-6,
             normal_tolerance_rad: crate::mesh::NORMAL_TOLERANCE,
             drop_duplicate_faces: true,
+            bulge_limit: crate::mesh::BULGE_LIMIT,
         }
     }
 }
@@ -412,12 +421,14 @@ impl Scene {
                     EdgeKind::Crease => st.crease_edges += 1,
                     EdgeKind::Border => st.border_edges += 1,
                     EdgeKind::NonManifold => st.nonmanifold_edges += 1,
+                    EdgeKind::Straightened => st.straightened_edges += 1,
                 }
             }
         }
         // Each shared edge was seen from both sides.
         st.smooth_edges /= 2;
         st.crease_edges /= 2;
+        st.straightened_edges /= 2;
         st.normals_from_file = self.stats.normals_from_file;
         st.normals_computed = self.stats.normals_computed;
         if st.normals_from_file + st.normals_computed == 0 {
@@ -540,6 +551,12 @@ fn warn_skipped_input(raw: &obj::RawObj, name: &str, warnings: &mut Vec<String>)
         warnings.push(format!(
             "{name}:{line}: {} `vt` lines with more than 3 numbers or a non-finite one; those corners get no texture",
             raw.bad_texcoords
+        ));
+    }
+    if let Some(line) = raw.first_non_finite_normal_line {
+        warnings.push(format!(
+            "{name}:{line}: {} `vn` lines with a coordinate that is not a finite number (first here); their corners get computed normals",
+            raw.non_finite_normals
         ));
     }
     if raw.skipped_statements > 0 {
@@ -718,7 +735,7 @@ fn soft_creases(m: &Mesh) -> (usize, usize) {
     let mut shared = 0;
     for (t, kinds) in m.edge_kinds.iter().enumerate() {
         for (k, kind) in kinds.iter().enumerate() {
-            shared += matches!(kind, EdgeKind::Crease | EdgeKind::Smooth) as usize;
+            shared += matches!(kind, EdgeKind::Crease | EdgeKind::Smooth | EdgeKind::Straightened) as usize;
             if *kind == EdgeKind::Crease {
                 let tri = m.indices[t];
                 let (a, b) = (m.position_ids[tri[k] as usize], m.position_ids[tri[(k + 1) % 3] as usize]);
@@ -770,8 +787,16 @@ fn build_mesh(
     stats.normals_from_file += out.from_file;
     stats.normals_computed += out.computed;
 
-    // Classify the edges; keep the corner texture coordinates if any is usable.
-    let edge_kinds = classify_edges(&out.indices, &out.position_ids);
+    // Classify the edges, straightening those that would balloon; keep the corner texture
+    // coordinates if any is usable.
+    let mut edge_kinds = classify_edges(&out.indices, &out.position_ids);
+    crate::mesh::straighten_bulging_edges(
+        &out.positions,
+        &out.normals,
+        &out.indices,
+        &mut edge_kinds,
+        opts.bulge_limit,
+    );
     let normals_source = match (out.from_file, out.computed) {
         (_, 0) => NormalsSource::FromFile,
         (0, _) => NormalsSource::Computed,
@@ -893,7 +918,8 @@ fn welded_triangles(
         }
         let file_normal = t.map(|c| {
             c.n.map(|n| raw.normals[n as usize]).and_then(|n| {
-                let r = n.try_normalize();
+                // A huge f32 normal overflows its f32 length: then in f64. NaN gives None.
+                let r = n.try_normalize().or_else(|| n.as_dvec3().try_normalize().map(|d| d.as_vec3()));
                 if r.is_none() {
                     stats.zero_normals_replaced += 1;
                 }

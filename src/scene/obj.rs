@@ -69,6 +69,11 @@ pub struct RawObj {
     pub first_skipped_element_line: Option<usize>,
     /// Whether a `usemtl` came before any `mtllib` (a warning when no `mtllib` follows).
     pub usemtl_without_mtllib: bool,
+    /// `vn` lines with a coordinate that is not a finite number (NaN, infinite, or past the f32
+    /// range): kept as a NaN normal, which the loader replaces by a computed one.
+    pub non_finite_normals: usize,
+    /// The first such line, for the warning.
+    pub first_non_finite_normal_line: Option<usize>,
 }
 
 fn malformed(path: &Path, line: usize, msg: impl Into<String>) -> SceneError {
@@ -76,6 +81,20 @@ fn malformed(path: &Path, line: usize, msg: impl Into<String>) -> SceneError {
 }
 
 fn parse_floats<const N: usize>(
+    path: &Path,
+    line: usize,
+    what: &str,
+    args: &[&str],
+) -> Result<[f32; N], SceneError> {
+    let out = parse_numbers::<N>(path, line, what, args)?;
+    if let Some(i) = out.iter().position(|x| !x.is_finite()) {
+        return Err(SceneError::NonFinite { path: path.to_path_buf(), line, value: cut_token(args[i]) });
+    }
+    Ok(out)
+}
+
+/// The first `N` numbers of a statement, which may be infinite or NaN (`nan`, `inf`, `1e39`).
+fn parse_numbers<const N: usize>(
     path: &Path,
     line: usize,
     what: &str,
@@ -89,9 +108,6 @@ fn parse_floats<const N: usize>(
         let x: f32 = a
             .parse()
             .map_err(|_| malformed(path, line, format!("`{what}`: {} is not a number", cut_token(a))))?;
-        if !x.is_finite() {
-            return Err(SceneError::NonFinite { path: path.to_path_buf(), line, value: cut_token(a) });
-        }
         out[i] = x;
     }
     Ok(out)
@@ -187,8 +203,14 @@ impl Parser<'_> {
                 self.obj.positions.push(Vec3::new(x, y, z));
             }
             "vn" => {
-                let [x, y, z] = parse_floats::<3>(path, line, "vn", args)?;
-                self.obj.normals.push(Vec3::new(x, y, z));
+                // A normal that is not finite is kept as NaN (replaced by a computed one, with a
+                // warning); a position that is not finite is an error.
+                let n = Vec3::from(parse_numbers::<3>(path, line, "vn", args)?);
+                if !n.is_finite() {
+                    self.obj.non_finite_normals += 1;
+                    self.obj.first_non_finite_normal_line.get_or_insert(line);
+                }
+                self.obj.normals.push(if n.is_finite() { n } else { Vec3::NAN });
             }
             "vt" => self.texcoord(line, args)?,
             "f" | "l" | "p" if args.len() < 3 || kw != "f" => {
@@ -305,34 +327,15 @@ pub fn triangulate(points: &[Vec3]) -> Vec<[usize; 3]> {
     if n == 3 {
         return vec![[0, 1, 2]];
     }
-    // Compute the Newell normal and a 2D projection dropping its largest axis.
-    let mut nrm = DVec3::ZERO;
-    for i in 0..n {
-        let (a, b) = (points[i].as_dvec3(), points[(i + 1) % n].as_dvec3());
-        nrm += DVec3::new((a.y - b.y) * (a.z + b.z), (a.z - b.z) * (a.x + b.x), (a.x - b.x) * (a.y + b.y));
-    }
-    let ax = nrm.abs();
-    let (i0, i1) = if ax.x >= ax.y && ax.x >= ax.z {
-        (1, 2)
-    } else if ax.y >= ax.z {
-        (2, 0)
-    } else {
-        (0, 1)
-    };
-    let sign = if nrm[3 - i0 - i1] >= 0.0 { 1.0 } else { -1.0 };
-    let p2: Vec<(f64, f64)> = points.iter().map(|p| (p[i0] as f64, p[i1] as f64)).collect();
-    let cross = |a: usize, b: usize, c: usize| {
-        let (ax, ay) = p2[a];
-        let (bx, by) = p2[b];
-        let (cx, cy) = p2[c];
-        ((bx - ax) * (cy - ay) - (by - ay) * (cx - ax)) * sign
-    };
+    // Compute the polygon in its plane.
+    let plane = Plane2::of(points);
+    let (p2, cross) = (&plane.p, |a: usize, b: usize, c: usize| plane.cross(a, b, c));
 
     // Compute the ring and the reflex (or flat) corners.
     let mut next: Vec<usize> = (0..n).map(|i| (i + 1) % n).collect();
     let mut prev: Vec<usize> = (0..n).map(|i| (i + n - 1) % n).collect();
     let mut reflex: Vec<bool> = (0..n).map(|i| cross(prev[i], i, next[i]) <= 0.0).collect();
-    let grid = ReflexGrid::new(&p2, &reflex);
+    let grid = ReflexGrid::new(p2, &reflex);
     let mut grid = grid;
 
     let mut tris = Vec::with_capacity(n - 2);
@@ -344,23 +347,9 @@ pub fn triangulate(points: &[Vec3]) -> Vec<[usize; 3]> {
     while remaining > 3 && budget > 0 {
         let (a, b, c) = (prev[cur], cur, next[cur]);
         let is_ear = !reflex[b] && {
-            // No remaining reflex corner inside (or on) the ear, except copies of its corners.
-            let (lo, hi) = bbox3(p2[a], p2[b], p2[c]);
-            let (hit, cost) = grid.any_in(lo, hi, |q| {
-                if !reflex[q]
-                    || q == a
-                    || q == b
-                    || q == c
-                    || p2[q] == p2[a]
-                    || p2[q] == p2[b]
-                    || p2[q] == p2[c]
-                {
-                    return false;
-                }
-                cross(a, b, q) >= 0.0 && cross(b, c, q) >= 0.0 && cross(c, a, q) >= 0.0
-            });
+            let (clear, cost) = plane.ear_is_clear([a, b, c], &grid, &reflex);
             budget = budget.saturating_sub(cost);
-            !hit
+            clear
         };
         if !is_ear {
             cur = next[cur];
@@ -396,6 +385,55 @@ pub fn triangulate(points: &[Vec3]) -> Vec<[usize; 3]> {
         k = next[k];
     }
     tris
+}
+
+/// A polygon projected to 2D by dropping the largest axis of its Newell normal, with the sign
+/// that makes its turn counter-clockwise.
+struct Plane2 {
+    p: Vec<(f64, f64)>,
+    sign: f64,
+}
+
+impl Plane2 {
+    fn of(points: &[Vec3]) -> Plane2 {
+        let n = points.len();
+        let mut nrm = DVec3::ZERO;
+        for i in 0..n {
+            let (a, b) = (points[i].as_dvec3(), points[(i + 1) % n].as_dvec3());
+            nrm +=
+                DVec3::new((a.y - b.y) * (a.z + b.z), (a.z - b.z) * (a.x + b.x), (a.x - b.x) * (a.y + b.y));
+        }
+        let ax = nrm.abs();
+        let (i0, i1) = if ax.x >= ax.y && ax.x >= ax.z {
+            (1, 2)
+        } else if ax.y >= ax.z {
+            (2, 0)
+        } else {
+            (0, 1)
+        };
+        let sign = if nrm[3 - i0 - i1] >= 0.0 { 1.0 } else { -1.0 };
+        Plane2 { p: points.iter().map(|p| (p[i0] as f64, p[i1] as f64)).collect(), sign }
+    }
+
+    /// Twice the signed area of corners a, b, c (positive: a left turn).
+    fn cross(&self, a: usize, b: usize, c: usize) -> f64 {
+        let ((ax, ay), (bx, by), (cx, cy)) = (self.p[a], self.p[b], self.p[c]);
+        ((bx - ax) * (cy - ay) - (by - ay) * (cx - ax)) * self.sign
+    }
+
+    /// Whether no remaining reflex corner lies inside (or on) the ear `[a, b, c]`, copies of
+    /// its corners aside; and the grid cells and corners looked at.
+    fn ear_is_clear(&self, [a, b, c]: [usize; 3], grid: &ReflexGrid, reflex: &[bool]) -> (bool, u64) {
+        let p2 = &self.p;
+        let (lo, hi) = bbox3(p2[a], p2[b], p2[c]);
+        let (hit, cost) = grid.any_in(lo, hi, |q| {
+            if !reflex[q] || [a, b, c].contains(&q) || [p2[a], p2[b], p2[c]].contains(&p2[q]) {
+                return false;
+            }
+            self.cross(a, b, q) >= 0.0 && self.cross(b, c, q) >= 0.0 && self.cross(c, a, q) >= 0.0
+        });
+        (!hit, cost)
+    }
 }
 
 fn bbox3(a: (f64, f64), b: (f64, f64), c: (f64, f64)) -> ((f64, f64), (f64, f64)) {

@@ -153,6 +153,15 @@ pub struct CameraArgs {
     /// Vertical field of view in degrees, in (0, 180) [default: 35].
     #[arg(long)]
     pub fov: Option<f32>,
+    /// With a ground, frame the model and the shadow it casts under the key light together (on),
+    /// or the model alone (off, the rule before).
+    #[arg(long, value_enum, default_value_t = Switch::On)]
+    pub frame_shadow: Switch,
+    /// Turn the default view's front towards a face (objects named head, face, eye, Kopf, ...) or
+    /// so a handle shows (on), or keep the exporters' convention and long models' head end (off,
+    /// the rule before).
+    #[arg(long, value_enum, default_value_t = Switch::On)]
+    pub front_cues: Switch,
 }
 
 #[derive(Args, Debug)]
@@ -168,6 +177,11 @@ pub struct LoadArgs {
     /// a warning, as their edges would be non-manifold and straight).
     #[arg(long)]
     pub keep_duplicate_faces: bool,
+    /// Keep a smooth edge straight when its curve (at alpha 1) would stand off its chord by more
+    /// than this many times the height of a triangle beside it: no balloons on slivers. `inf`
+    /// keeps every smooth edge curved (the rule before).
+    #[arg(long, default_value_t = phongrt::mesh::BULGE_LIMIT)]
+    pub bulge_limit: f32,
 }
 
 #[derive(Args, Debug)]

@@ -28,7 +28,7 @@ pub(crate) fn largest_deviation(s: &scene::Scene) -> Option<(f64, usize, usize)>
 }
 
 pub(crate) fn info_cmd(args: InfoArgs) -> anyhow::Result<()> {
-    let s = load(&args.scene, &load_options(&args.load, args.load.crease_angle)?)?;
+    let s = load(&args.scene, &load_options(&args.load, args.load.crease_angle)?, true)?;
     let device = Device::new().context("cannot start Embree")?;
     let (major, minor, patch) = device.version();
     let st = &s.stats;
@@ -42,7 +42,7 @@ pub(crate) fn info_cmd(args: InfoArgs) -> anyhow::Result<()> {
             "vertices": st.vertices,
             "triangles": st.triangles,
             "normals": { "from_file": st.normals_from_file, "computed": st.normals_computed },
-            "edges": { "smooth": st.smooth_edges, "crease": st.crease_edges, "border": st.border_edges, "nonmanifold": st.nonmanifold_edges },
+            "edges": { "smooth": st.smooth_edges, "crease": st.crease_edges, "border": st.border_edges, "nonmanifold": st.nonmanifold_edges, "straightened": st.straightened_edges },
             "degenerate_skipped": st.degenerate_skipped,
             "largest_deviation": largest_deviation(&s).map(|(r, m, t)| serde_json::json!({ "ratio": r, "object": s.meshes[m].name, "triangle": t })),
             "duplicates_dropped": st.duplicates_dropped,
@@ -66,6 +66,12 @@ pub(crate) fn info_cmd(args: InfoArgs) -> anyhow::Result<()> {
         "edges: {} smooth, {} crease, {} border, {} non-manifold",
         st.smooth_edges, st.crease_edges, st.border_edges, st.nonmanifold_edges
     );
+    if st.straightened_edges > 0 {
+        println!(
+            "straightened: {} smooth edges that would bulge more than {} × the height of a triangle beside them (--bulge-limit)",
+            st.straightened_edges, args.load.bulge_limit
+        );
+    }
     if st.degenerate_skipped > 0 {
         println!("skipped: {} degenerate triangles", st.degenerate_skipped);
     }

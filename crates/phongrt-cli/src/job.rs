@@ -9,6 +9,7 @@ use glam::Vec3;
 use crate::cli::{self, RenderArgs};
 use crate::load::{load, load_options, parse_object_override};
 use crate::plan::{plan, RenderPlan};
+use crate::progress::Stage;
 use crate::Usage;
 use phongrt::embree::Device;
 use phongrt::scene::{self, LoadOptions};
@@ -119,7 +120,7 @@ impl RenderJob {
         // Load the mesh, and check the object names given for it.
         let crease = sf.and_then(|s| s.crease_angle).unwrap_or(args.load.crease_angle);
         let load_opts = load_options(&args.load, crease)?;
-        let input = load(&source.obj, &load_opts)?;
+        let input = load(&source.obj, &load_opts, !args.quiet)?;
         for (name, _) in &overrides {
             if !(name == "*" || input.meshes.iter().any(|m| m.name == *name)) {
                 usage!(
@@ -158,7 +159,13 @@ impl RenderJob {
         let sf_ground = sf.and_then(|s| s.ground.clone());
         let ground = (args.ground || sf_ground.is_some()).then(|| {
             let g = sf_ground.unwrap_or_default();
-            render::Ground { up, height: g.height, kd: g.kd.map_or(render::Ground::default().kd, Vec3::from) }
+            let kd = g.kd.map_or(render::Ground::default().kd, Vec3::from);
+            let ground = render::Ground { up, height: g.height, kd, radius: None };
+            // Large enough that the view does not see its far edge (--frame-shadow off: as before).
+            let aspect = plan.width as f32 / plan.height as f32;
+            let fit = args.camera.frame_shadow == cli::Switch::On;
+            let radius = fit.then(|| ground.radius_for_view(input.bounds(), &camera, aspect));
+            render::Ground { radius, ..ground }
         });
         let settings = RenderSettings {
             width: plan.width,
@@ -254,9 +261,16 @@ impl RenderJob {
     /// The world to render: every object in its mode (or all in `forced`), the key light
     /// following the camera unless the scene file places lights, and the scene file's settings.
     pub(crate) fn world(&self, device: &Device, forced: Option<ObjectMode>) -> anyhow::Result<World> {
-        let mut world = World::from_scene_with_ground(device, &self.input, self.ground, |_, mesh| {
+        let what = match forced {
+            Some(ObjectMode::Flat) => "building the flat scene",
+            _ => "building the scene",
+        };
+        let building = Stage::start(what.to_string(), self.progress);
+        let world = World::from_scene_with_ground(device, &self.input, self.ground, |_, mesh| {
             self.modes.settings(forced, mesh)
-        })?;
+        });
+        drop(building);
+        let mut world = world?;
         world.shading = self.shading;
         world.terminator = self.terminator;
         if forced.is_none() {
@@ -304,12 +318,30 @@ pub(crate) fn resolve_camera(
     let up_given = args.camera.up.or(sf.and_then(|s| s.camera.up).map(Vec3::from));
     let sf_camera = sf.map(|s| s.camera.clone()).unwrap_or_default();
     let single_orbit = if plan.frames.is_some() { None } else { args.farm.orbit };
-    let (mut camera, detection) = render::camera::default_view(
+    // With a ground, the default view frames the model's shadow too (--frame-shadow off: not).
+    // A scene file's lights replace the key light: the first directional one casts the shadow
+    // to frame; with only point or sphere lights the model is framed alone.
+    let sf_ground = sf.and_then(|s| s.ground.as_ref());
+    let sf_lights = sf.map(|s| &s.lights[..]).unwrap_or_default();
+    let ground_light = sf_lights.iter().find_map(|l| match l {
+        LightSection::Directional { direction, .. } => Some(Vec3::from(*direction)),
+        _ => None,
+    });
+    let options = render::camera::DefaultViewOptions {
+        ground: (args.ground || sf_ground.is_some())
+            && args.camera.frame_shadow == cli::Switch::On
+            && (sf_lights.is_empty() || ground_light.is_some()),
+        ground_height: sf_ground.and_then(|g| g.height),
+        ground_light,
+        front_cues: args.camera.front_cues == cli::Switch::On,
+    };
+    let (mut camera, detection) = render::camera::default_view_with(
         input,
         up_given,
         single_orbit.or(sf_camera.orbit).unwrap_or(0.0),
         args.camera.fov.or(sf_camera.fov),
         width as f32 / height as f32,
+        options,
     );
     if up_given.is_none() && !args.quiet {
         eprintln!("phongrt: {detection}");

@@ -5,6 +5,7 @@ use std::path::Path;
 use anyhow::bail;
 
 use crate::cli::LoadArgs;
+use crate::progress::Stage;
 use crate::Usage;
 use phongrt::scene::{self, LoadOptions};
 use phongrt_render::{ObjectMode, SurfaceMode};
@@ -27,17 +28,27 @@ pub(crate) fn load_options(args: &LoadArgs, crease_angle: f32) -> anyhow::Result
     if !(0.0..=0.1).contains(&tol) {
         usage!("--normal-tolerance {tol} is not in [0, 0.1] radians");
     }
+    if args.bulge_limit.is_nan() || args.bulge_limit <= 0.0 {
+        usage!("--bulge-limit {} is not a positive number (inf turns the rule off)", args.bulge_limit);
+    }
     Ok(LoadOptions {
         crease_angle_deg: crease_angle,
         normal_tolerance_rad: tol,
         drop_duplicate_faces: !args.keep_duplicate_faces,
+        bulge_limit: args.bulge_limit,
         ..LoadOptions::default()
     })
 }
 
-pub(crate) fn load(path: &Path, opts: &LoadOptions) -> anyhow::Result<scene::Scene> {
+/// Read the OBJ at `path`, with a spinner on a terminal when it takes beyond a second and
+/// `show`, then print its warnings.
+pub(crate) fn load(path: &Path, opts: &LoadOptions, show: bool) -> anyhow::Result<scene::Scene> {
     check_obj_path(path)?;
-    let s = scene::load_obj(path, opts)?;
+    let name = path.file_name().map_or_else(|| path.display().to_string(), |n| n.to_string_lossy().into());
+    let loading = Stage::start(format!("loading {name}"), show);
+    let s = scene::load_obj(path, opts);
+    drop(loading);
+    let s = s?;
     for w in &s.warnings {
         eprintln!("phongrt: warning: {w}");
     }

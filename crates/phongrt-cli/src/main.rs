@@ -40,6 +40,7 @@ mod info;
 mod job;
 mod load;
 mod plan;
+mod progress;
 mod render_cmd;
 
 fn main() -> ExitCode {

@@ -18,7 +18,7 @@ use glam::Vec3;
 use crate::bench::{bench_light, primary_rays, shadow_ray, BenchError};
 use phongrt::embree::{
     CommittedScene, Device, GeometryOptions, OriginPrim, PatchTest, PhongMesh, PrimHit, Ray, RayOrigin,
-    Scene, UserPrimitives, UserTriangles,
+    Scene, UserPrimitives, UserTriangles, PACKET8,
 };
 use phongrt::phong::{intersect_in_hull_traced, intersect_traced, TestOutcome, V3};
 use phongrt::scene::Mesh;
@@ -421,6 +421,100 @@ pub enum Counted {
     Flat,
     /// The recorded patch solves that took this path, replayed alone.
     Outcome(TestOutcome),
+    /// The rays through Embree on the Phong mesh in coherent 8-ray packets from 4x2 pixel
+    /// blocks (the renderer's), each packet's lanes tested together on a patch.
+    PhongPackets,
+    /// As [`Counted::PhongPackets`], the lanes tested one by one (the packet route before the
+    /// lane kernel: [`UserPrimitives::intersect_packet`]'s default).
+    PhongPacketsLaneByLane,
+    /// The same packets on Embree's triangles of the mesh.
+    FlatPackets,
+}
+
+/// A Phong mesh whose packets are tested lane by lane: it keeps
+/// [`UserPrimitives::intersect_packet`]'s default.
+struct LaneByLane(Arc<PhongMesh>);
+
+impl UserPrimitives for LaneByLane {
+    fn count(&self) -> u32 {
+        self.0.count()
+    }
+
+    fn bounds(&self, prim: u32) -> Option<(Vec3, Vec3)> {
+        self.0.bounds(prim)
+    }
+
+    #[inline]
+    fn intersect(&self, prim: u32, org: Vec3, dir: Vec3, tnear: f32, tfar: f32) -> Option<PrimHit> {
+        self.0.intersect(prim, org, dir, tnear, tfar)
+    }
+
+    #[inline]
+    fn intersect_from(
+        &self,
+        prim: u32,
+        origin: Option<OriginPrim>,
+        org: Vec3,
+        dir: Vec3,
+        tnear: f32,
+        tfar: f32,
+    ) -> Option<PrimHit> {
+        self.0.intersect_from(prim, origin, org, dir, tnear, tfar)
+    }
+}
+
+/// The rays of `kind` per pixel of the bench's `size`² image, row-major (`None`: a pixel with
+/// no shadow ray), each shadow ray with the hit it starts from.
+fn pixel_rays(scenes: &Scenes, primary: Vec<Ray>, light: Vec3, kind: RayKind) -> Vec<Option<Traced>> {
+    match kind {
+        RayKind::Primary => primary.into_iter().map(|r| Some((r, None))).collect(),
+        RayKind::Shadow => primary
+            .iter()
+            .map(|r| {
+                let h = scenes.direct.intersect1(*r)?;
+                shadow_ray(r, &h, light).map(|(s, _)| (s, Some(RayOrigin::of_hit(&h))))
+            })
+            .collect(),
+    }
+}
+
+/// One 8-ray packet: the rays, where each starts (shadow rays) and the active lanes.
+type Packet = ([Ray; PACKET8], [Option<RayOrigin>; PACKET8], u8);
+
+/// `rays` (one per pixel of a `size`² image, row-major) as the renderer's coherent 8-ray
+/// packets from 4x2 pixel blocks, the pixels without a ray inactive; shadow rays with their
+/// origins, as the renderer traces them.
+fn packets_of(rays: &[Option<Traced>], size: u32) -> Vec<Packet> {
+    let at = |x: u32, y: u32| if x < size && y < size { rays[(y * size + x) as usize] } else { None };
+    let mut packets = Vec::new();
+    for by in (0..size).step_by(2) {
+        for bx in (0..size).step_by(4) {
+            let lane: [Option<Traced>; PACKET8] =
+                std::array::from_fn(|k| at(bx + k as u32 % 4, by + k as u32 / 4));
+            let active = lane.iter().enumerate().fold(0u8, |m, (k, r)| m | ((r.is_some() as u8) << k));
+            let Some((any, _)) = lane.iter().flatten().next().copied() else { continue };
+            packets.push((
+                lane.map(|r| r.map_or(any, |(r, _)| r)),
+                lane.map(|r| r.and_then(|(_, o)| o)),
+                active,
+            ));
+        }
+    }
+    packets
+}
+
+/// Trace `packets` of `kind` through `scene`.
+fn trace_packets(scene: &CommittedScene, packets: &[Packet], kind: RayKind) {
+    for (rays, origins, active) in packets {
+        match kind {
+            RayKind::Primary => {
+                std::hint::black_box(scene.intersect8_rays(rays, *active, true));
+            }
+            RayKind::Shadow => {
+                std::hint::black_box(scene.occluded8_rays_from(rays, origins, *active, true));
+            }
+        }
+    }
 }
 
 /// Set up `m`'s scenes and rays of `kind` (the bench's, `size`²), then run `what` once inside
@@ -434,6 +528,9 @@ pub fn count_work(
     what: Counted,
 ) -> Result<usize, BenchError> {
     let device = Device::new()?;
+    // The packet modes trace the bench's primary rays (and their shadow rays) as packets.
+    let (frame, primary_for_packets) = primary_rays(name, m, size, size)?;
+    let light = bench_light(&frame);
     let scenes = Scenes::new(&device, m, 1)?;
     let rays = rays_of(name, m, size, &scenes, kind)?;
     let solves: Vec<Solve> = match what {
@@ -458,9 +555,38 @@ pub fn count_work(
         }
         _ => Vec::new(),
     };
+    let own;
+    let packets = match what {
+        Counted::PhongPackets => Some(&scenes.direct),
+        Counted::PhongPacketsLaneByLane => {
+            own = lane_by_lane_scene(&device, &scenes.mesh)?;
+            Some(&own)
+        }
+        Counted::FlatPackets => Some(&scenes.flat),
+        _ => None,
+    };
+    if let Some(scene) = packets {
+        let rays = pixel_rays(&scenes, primary_for_packets, light, kind);
+        counted_packets(scene, &packets_of(&rays, size), kind);
+        return Ok(rays.iter().flatten().count());
+    }
     let scene = if what == Counted::Flat { &scenes.flat } else { &scenes.direct };
     counted_work(scene, &scenes.mesh, &rays, kind, &solves, matches!(what, Counted::Outcome(_)));
     Ok(if matches!(what, Counted::Outcome(_)) { solves.len() } else { rays.len() })
+}
+
+/// `mesh` as a user geometry whose packets are tested lane by lane ([`LaneByLane`]).
+fn lane_by_lane_scene(device: &Device, mesh: &Arc<PhongMesh>) -> Result<CommittedScene, BenchError> {
+    let mut scene = Scene::new(device)?;
+    scene.attach_user(LaneByLane(mesh.clone()), GeometryOptions::default())?;
+    Ok(scene.commit()?)
+}
+
+/// The counted work of [`count_work`] for packets. Never inlined (callgrind's
+/// `--toggle-collect=*counted_packets*`).
+#[inline(never)]
+fn counted_packets(scene: &CommittedScene, packets: &[Packet], kind: RayKind) {
+    trace_packets(scene, packets, kind);
 }
 
 /// The counted work of [`count_work`]: `rays` through `scene`, or the `solves` on `mesh` when

@@ -59,6 +59,35 @@ fn render_with_bar(
     out
 }
 
+/// How long the pilot before a render may take.
+const PILOT_BUDGET: std::time::Duration = std::time::Duration::from_millis(250);
+
+/// Estimate the render of `worlds` (one after the other, `frames` times) on `pool`'s threads
+/// by a short pilot each ([`render::estimate`]), and warn before it starts when it should take
+/// longer than [`crate::progress::LONG_RENDER`]. The frames of an orbit cost alike, so the first
+/// frame's camera stands for all.
+fn warn_if_long(
+    pool: &rayon::ThreadPool,
+    what: &str,
+    worlds: &[&World],
+    frames: u32,
+    camera: &Camera,
+    settings: &RenderSettings,
+    extent: &RenderExtent,
+) -> anyhow::Result<()> {
+    let threads = pool.current_num_threads();
+    let mut estimates = Vec::new();
+    for w in worlds {
+        estimates.push(pool.install(|| render::estimate(w, camera, settings, extent, PILOT_BUDGET))?);
+    }
+    let time: std::time::Duration =
+        estimates.iter().map(|e| e.time(threads)).sum::<std::time::Duration>() * frames;
+    if let Some(w) = crate::progress::long_render_warning(what, time, &estimates, threads) {
+        eprintln!("phongrt: warning: {w}");
+    }
+    Ok(())
+}
+
 /// `--compare`: flat everywhere on the left; on the right each object as a plain render makes
 /// it (the scene file's and --object's per-object mode and alpha); their difference.
 pub(crate) fn run_compare(
@@ -76,6 +105,8 @@ pub(crate) fn run_compare(
         eprintln!("phongrt: {}", phong.effects());
     }
     let whole = RenderExtent::default();
+    let what = format!("{} (flat, then Phong)", job.plan.output.name());
+    warn_if_long(pool, &what, &[&flat, &phong], 1, &job.camera, &job.settings, &whole)?;
     let a = render_with_bar(pool, job.progress, &flat, &job.camera, &job.settings, &whole)?;
     report(quiet, "flat", &a);
     let b = render_with_bar(pool, job.progress, &phong, &job.camera, &job.settings, &whole)?;
@@ -118,6 +149,10 @@ pub(crate) fn run_frames(
     let plan = &job.plan;
     let extent = RenderExtent { crop: plan.crop, alpha: plan.alpha };
     let mut frames = Vec::new();
+    let count = plan.outputs().len() as u32;
+    let what =
+        if count > 1 { format!("{} ({count} frames)", plan.output.name()) } else { plan.output.name() };
+    warn_if_long(pool, &what, &[&world], count, &job.camera, &job.settings, &extent)?;
     for (k, output) in plan.outputs() {
         // Compute the frame's camera: an orbit of the eye about the look-at point.
         let camera = match (k, plan.frames) {

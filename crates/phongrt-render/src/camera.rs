@@ -138,13 +138,28 @@ pub struct ViewSpec {
     pub fov_y_deg: f32,
     /// The fraction of the frame the model's projected vertices span in the tighter direction.
     pub fill: f32,
+    /// A ground plane at this height along `up` (`p · up = h`): the view then frames the
+    /// shadow the model casts on it under the camera's key light too
+    /// ([`Camera::key_light_direction`]). `None`: no ground, the model alone.
+    pub ground: Option<f32>,
+    /// The direction towards the light whose shadow on the ground is framed (unit); `None`: the
+    /// camera's key light.
+    pub ground_light: Option<Vec3>,
 }
 
 impl ViewSpec {
     /// The default view for a model whose up axis is `up`: the front by the exporters' convention
     /// (see [`front_for_up`]), no orbit, 35 degree field of view, [`DEFAULT_FILL`].
     pub fn for_up(up: Vec3) -> Self {
-        ViewSpec { up, front: front_for_up(up), orbit_deg: 0.0, fov_y_deg: 35.0, fill: DEFAULT_FILL }
+        ViewSpec {
+            up,
+            front: front_for_up(up),
+            orbit_deg: 0.0,
+            fov_y_deg: 35.0,
+            fill: DEFAULT_FILL,
+            ground: None,
+            ground_light: None,
+        }
     }
 }
 
@@ -169,8 +184,9 @@ impl Camera {
     /// turned [`THREE_QUARTER_AZIMUTH_DEG`] + `spec.orbit_deg` about `spec.up` and raised
     /// [`THREE_QUARTER_ELEVATION_DEG`], aimed and placed so the points' projection is centred
     /// and spans `spec.fill` of the frame in the tighter direction. The centre starts at the
-    /// centre of `bounds`; two passes re-aim at the projected extent's centre. `None` for no
-    /// points or a degenerate spec.
+    /// centre of `bounds`; two passes re-aim at the projected extent's centre. With a ground
+    /// (`spec.ground`) the points' shadows on it ([`shadow_points`]) are framed with them. `None`
+    /// for no points or a degenerate spec.
     pub fn three_quarter(
         points: &[Vec3],
         bounds: (Vec3, Vec3),
@@ -195,6 +211,17 @@ impl Camera {
         if !(ty > 0.0 && ty.is_finite()) {
             return None;
         }
+        // Compute what to frame: the points, and their shadows on the ground if there is one.
+        let mut framed = points.to_vec();
+        if let Some(h) = spec.ground {
+            let key = Camera { eye: back, look_at: Vec3::ZERO, up, fov_y_deg: spec.fov_y_deg };
+            let light = spec
+                .ground_light
+                .and_then(|l| l.try_normalize())
+                .unwrap_or_else(|| key.key_light_direction());
+            framed.extend(shadow_points(points, up, h, light));
+        }
+        let points = &framed[..];
         // Compute the distance that fits every point, then re-centre on the projected extent.
         let mut center = 0.5 * (bounds.0 + bounds.1);
         let mut dist = 0.0f32;
@@ -229,9 +256,45 @@ impl Camera {
     }
 }
 
+/// Where the points cast their shadows on the plane `p · up = h` under a directional light
+/// from `light` (unit, towards the light): each point moved along the light onto the plane.
+/// Nothing for a light within 3 degrees of the horizon (its shadows run off to infinity).
+pub fn shadow_points(points: &[Vec3], up: Vec3, h: f32, light: Vec3) -> Vec<Vec3> {
+    let rise = light.dot(up);
+    if !(rise > 0.05) {
+        return Vec::new();
+    }
+    points.iter().map(|p| *p - ((p.dot(up) - h) / rise) * light).filter(|s| s.is_finite()).collect()
+}
+
+/// Choices of the default view beyond the camera settings ([`default_view_with`]).
+#[derive(Clone, Copy, Debug, PartialEq)]
+pub struct DefaultViewOptions {
+    /// The scene stands on a ground plane ([`crate::Ground`]): frame the shadow the model casts
+    /// on it under the camera's key light too.
+    pub ground: bool,
+    /// The ground's height along the up axis; `None`: the bottom of the scene's bounds, where
+    /// the ground is placed by default.
+    pub ground_height: Option<f32>,
+    /// The direction towards the light whose shadow is framed; `None`: the key light that
+    /// follows the camera ([`Camera::key_light_direction`]).
+    pub ground_light: Option<Vec3>,
+    /// Turn the front towards a face its object names mark, or so a handle shows
+    /// ([`named_part_front`], [`handle_front`]); `false`: the exporters' convention and the head
+    /// end of long models only (the rule before).
+    pub front_cues: bool,
+}
+
+impl Default for DefaultViewOptions {
+    fn default() -> Self {
+        DefaultViewOptions { ground: false, ground_height: None, ground_light: None, front_cues: true }
+    }
+}
+
 /// The default camera for a loaded scene: the up axis given or detected ([`detect_up`]), the
 /// three-quarter view of its vertices ([`Camera::three_quarter`]) turned by `orbit_deg`, with
-/// field of view `fov_y_deg` (35 degrees by default). Returns the detection too (for reporting).
+/// field of view `fov_y_deg` (35 degrees by default), no ground, with front cues. Returns the
+/// detection too (for reporting).
 pub fn default_view(
     scene: &phongrt::scene::Scene,
     up: Option<Vec3>,
@@ -239,9 +302,29 @@ pub fn default_view(
     fov_y_deg: Option<f32>,
     aspect: f32,
 ) -> (Camera, UpDetection) {
-    let detection = detect_up(
+    default_view_with(scene, up, orbit_deg, fov_y_deg, aspect, DefaultViewOptions::default())
+}
+
+/// As [`default_view`], with the choices of `options`: on a ground, the view frames the model
+/// and its shadow together.
+pub fn default_view_with(
+    scene: &phongrt::scene::Scene,
+    up: Option<Vec3>,
+    orbit_deg: f32,
+    fov_y_deg: Option<f32>,
+    aspect: f32,
+    options: DefaultViewOptions,
+) -> (Camera, UpDetection) {
+    // Compute the up axis and front, detected unless the up axis is given.
+    let mut detection = detect_up(
         scene.meshes.iter().flat_map(|m| m.indices.iter().map(|t| t.map(|i| m.positions[i as usize]))),
     );
+    if options.front_cues && detection.flat_axis.is_none() {
+        if let Some(front) = named_part_front(scene, detection.up).or_else(|| handle_front(scene, detection))
+        {
+            detection.front = front;
+        }
+    }
     let mut spec = match up {
         Some(up) => ViewSpec::for_up(up),
         None => ViewSpec { front: detection.front, ..ViewSpec::for_up(detection.up) },
@@ -250,11 +333,87 @@ pub fn default_view(
     if let Some(f) = fov_y_deg {
         spec.fov_y_deg = f;
     }
-    let points: Vec<Vec3> = scene.meshes.iter().flat_map(|m| m.positions.iter().copied()).collect();
+    // Compute the ground's height: the bounds' lowest corner along up, as the ground is placed.
     let (lo, hi) = scene.bounds();
+    spec.ground =
+        options.ground.then(|| options.ground_height.unwrap_or_else(|| lowest_corner(lo, hi, spec.up)));
+    spec.ground_light = options.ground_light;
+    let points: Vec<Vec3> = scene.meshes.iter().flat_map(|m| m.positions.iter().copied()).collect();
     let camera = Camera::three_quarter(&points, (lo, hi), &spec, aspect)
         .unwrap_or_else(|| Camera { up: spec.up, ..Camera::frame_bounds(lo, hi, aspect) });
     (camera, detection)
+}
+
+/// The lowest of the box's eight corners along `up` (unit).
+fn lowest_corner(lo: Vec3, hi: Vec3, up: Vec3) -> f32 {
+    let up = up.normalize_or_zero();
+    (0..8)
+        .map(|k| {
+            let c = Vec3::new(
+                if k & 1 == 0 { lo.x } else { hi.x },
+                if k & 2 == 0 { lo.y } else { hi.y },
+                if k & 4 == 0 { lo.z } else { hi.z },
+            );
+            c.dot(up)
+        })
+        .fold(f32::INFINITY, f32::min)
+}
+
+/// Object names that mark a model's face: its front is the side they are on.
+const FACE_PART_NAMES: [&str; 6] = ["head", "face", "eye", "kopf", "auge", "tete"];
+
+/// The front of a model whose objects name its face ([`FACE_PART_NAMES`], in any case, as the
+/// spider's "Kopf" and "Auge"): the horizontal direction from the centre of the bounds to the
+/// centroid of those objects' vertices, when it is more than 10% of the horizontal extent off
+/// the centre (a model that is all head, like `african_head`'s object "head", keeps its front).
+pub fn named_part_front(scene: &phongrt::scene::Scene, up: Vec3) -> Option<Vec3> {
+    let is_face = |name: &str| {
+        let n = name.to_ascii_lowercase();
+        FACE_PART_NAMES.iter().any(|k| n.contains(k))
+    };
+    let (sum, count) = scene
+        .meshes
+        .iter()
+        .filter(|m| is_face(&m.name))
+        .flat_map(|m| m.positions.iter())
+        .fold((Vec3::ZERO, 0usize), |(s, n), p| (s + *p, n + 1));
+    let (lo, hi) = scene.bounds();
+    let off = sum / count.max(1) as f32 - 0.5 * (lo + hi);
+    let off = off - off.dot(up) * up;
+    let ext = (hi - lo) - (hi - lo).dot(up).abs() * up.abs();
+    (count > 0 && off.length() > 0.1 * ext.length()).then(|| off.normalize())
+}
+
+/// The front of a prop with a handle (the mug): a compact model (not long along a horizontal
+/// axis) whose bounds' centre lies more than 10% of the extent off its surface's area centroid
+/// along a horizontal axis has a part sticking out that way. The front is turned a quarter from
+/// it, so the default three-quarter view (30 degrees towards the model's left) sees the handle at
+/// 60 degrees, standing out to the right. `None` when the front already comes from the model's
+/// length ([`detect_up`]'s head end) or nothing sticks out.
+pub fn handle_front(scene: &phongrt::scene::Scene, detection: UpDetection) -> Option<Vec3> {
+    let up = detection.up;
+    if (detection.front - front_for_up(up)).length() > 1e-6 {
+        return None;
+    }
+    // Compute the area centroid of the surface.
+    let (mut area, mut centroid) = (0.0f64, glam::DVec3::ZERO);
+    for m in &scene.meshes {
+        for t in &m.indices {
+            let [a, b, c] = t.map(|i| m.positions[i as usize].as_dvec3());
+            let w = 0.5 * (b - a).cross(c - a).length();
+            area += w;
+            centroid += w * (a + b + c) / 3.0;
+        }
+    }
+    let centroid = (centroid / area.max(f64::MIN_POSITIVE)).as_vec3();
+    let (lo, hi) = scene.bounds();
+    let (off, ext) = (0.5 * (lo + hi) - centroid, hi - lo);
+    // The horizontal axis along which the bounds' centre is farthest off, relative to the extent.
+    let axes = [Vec3::X, Vec3::Y, Vec3::Z].into_iter().filter(|a| a.dot(up).abs() < 0.5);
+    let (axis, rel) = axes
+        .map(|a| (a * off.dot(a).signum(), off.dot(a).abs() / ext.dot(a).max(f32::MIN_POSITIVE)))
+        .max_by(|x, y| x.1.total_cmp(&y.1))?;
+    (rel > 0.1).then(|| axis.cross(up).normalize())
 }
 
 /// The up axis and front [`detect_up`] chose, and the evidence.

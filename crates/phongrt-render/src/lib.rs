@@ -6,6 +6,7 @@
 #![allow(clippy::neg_cmp_op_on_partial_ord, clippy::nonminimal_bool)]
 
 pub mod camera;
+pub mod cost;
 pub mod image_out;
 pub mod render_record;
 pub mod scene_file;
@@ -29,6 +30,7 @@ pub use world::{
     Rng, Surface, SurfaceMode, Terminator, World,
 };
 
+pub use cost::{estimate, CostEstimate};
 use phongrt::embree::{self, EmbreeError, PhongMeshError};
 pub use tracer::Progress;
 use tracer::TILE;
@@ -306,7 +308,9 @@ pub fn render_extent(
     let tiles_x = win.width().div_ceil(TILE);
     let n_tiles = tiles_x * win.height().div_ceil(TILE);
     let meter = tracer::Meter::new(win.width() as u64 * win.height() as u64 * settings.spp as u64, progress);
-    let tracer = tracer::Tracer { world, frame, settings, alpha: extent.alpha, win, tiles_x, meter: &meter };
+    let batch = (256.0 / world.rays_per_sample_bound()).clamp(1.0, 64.0) as u64;
+    let tracer =
+        tracer::Tracer { world, frame, settings, alpha: extent.alpha, win, tiles_x, meter: &meter, batch };
     let tiles: Vec<_> = (0..n_tiles).into_par_iter().map(|t| tracer.trace_tile(t)).collect();
     let elapsed = meter.finish();
 

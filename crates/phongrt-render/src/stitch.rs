@@ -3,11 +3,9 @@
 
 use std::path::{Path, PathBuf};
 
-use glam::Vec3;
-
-use crate::image_out::{self, EncodeOptions, ImageError, ImageFormat, Tile, TileHeader, TilePixels};
+use crate::image_out::{self, ImageError, ImageFormat, TileHeader};
 use crate::render_record::{RenderRecord, RENDER_KEY};
-use crate::{Image, Window};
+use crate::Window;
 
 /// Why tiles were not stitched.
 #[derive(Debug, thiserror::Error)]
@@ -39,10 +37,10 @@ pub struct Stitched {
 
 /// Assemble `tiles` (in any order) into `output` (.png or .exr), replaced only by a complete
 /// file. Nothing is written unless every check passes, and the checks (of the headers) come
-/// before any pixel is read: a tile claiming a huge size costs nothing. PNG tiles are streamed
-/// row by row into the output (memory: a few rows, whatever the frame's size); EXR tiles and
-/// their frame are held whole, so an EXR stitch that needs more than the memory budget
-/// ([`memory_budget`]) is refused.
+/// before any pixel is read: a tile claiming a huge size costs nothing. Tiles are streamed into
+/// the output, PNG row by row and EXR block by block (memory: a few rows, whatever the frame's
+/// height); a stitch whose rows alone need more than the memory budget ([`memory_budget`]) is
+/// refused.
 pub fn stitch(output: &Path, tiles: &[PathBuf]) -> Result<Stitched, StitchError> {
     let format = check_output(output, tiles)?;
     if tiles.is_empty() {
@@ -62,18 +60,7 @@ pub fn stitch(output: &Path, tiles: &[PathBuf]) -> Result<Stitched, StitchError>
             "{}: PNG tiles are 8-bit sRGB; stitch them to .png (EXR output needs EXR tiles)",
             output.display()
         ),
-        (ImageFormat::Exr, _) => {
-            let mut read: Vec<(String, Tile)> = Vec::new();
-            for (p, (name, h)) in tiles.iter().zip(&headers) {
-                let t = image_out::read_tile(p)?;
-                if (t.window, &t.render) != (h.window, &h.render) {
-                    refuse!("{name}: changed while being stitched");
-                }
-                read.push((name.clone(), t));
-            }
-            let bytes = assemble_linear(&read, format)?;
-            image_out::write_atomically(output, &bytes)?;
-        }
+        (ImageFormat::Exr, _) => stream_exr(output, tiles, &headers)?,
     }
     Ok(Stitched { width: fw, height: fh, tiles: headers.len() })
 }
@@ -90,23 +77,26 @@ pub fn memory_budget() -> Option<u64> {
     Some(kb * 1024)
 }
 
-/// Bytes a stitch of these (checked) tiles needs, estimated from their headers.
-/// - PNG, streamed: the output row and, per tile, its decoder (two rows, the inflate window and
-///   the read buffer) and the encoder's deflate state.
-/// - EXR, held whole: per frame pixel, each tile's decoded RGBA floats (16 bytes) and their copy
-///   (12 or 16), the frame's samples (12 or 16), its image and alpha (16) and the encoded file
-///   (up to 16): 72 bytes with alpha, as measured by the issue (53) rounded up.
+/// Bytes a stitch of these (checked) tiles needs, estimated from their headers; both formats
+/// are streamed, so it grows with the frame's width and the tiles' widths, not the frame's area.
+/// - PNG: the output row and, per tile open at once (crossing one row), its decoder (two rows, the inflate window and the read
+///   buffer) and the encoder's deflate state.
+/// - EXR: the output block of 16 rows three times over (the rows, the block, its compression)
+///   and, per tile open at once, up to two of its decoded blocks (32 rows at most each) and the read buffer.
 pub fn stitch_memory(headers: &[(String, TileHeader)]) -> u64 {
     let first = &headers[0].1;
-    let (fw, fh, ch) =
-        (first.window.full_width as u64, first.window.full_height as u64, first.channels as u64);
+    let (fw, ch) = (first.window.full_width as u64, first.channels as u64);
+    // Compute the most any row has open: the tiles crossing the first row of each tile.
+    let tiles = |row_bytes: u64, rows: u64, fixed: u64| -> u64 {
+        let open_at = |y: u32| -> u64 {
+            let crossing = headers.iter().filter(|(_, h)| (h.window.y0..h.window.y1).contains(&y));
+            crossing.map(|(_, h)| h.window.width() as u64 * row_bytes * rows + fixed).sum()
+        };
+        headers.iter().map(|(_, h)| open_at(h.window.y0)).max().unwrap_or(0)
+    };
     match first.format {
-        ImageFormat::Png => {
-            let per_tile: u64 =
-                headers.iter().map(|(_, h)| 2 * h.window.width() as u64 * ch + (96 << 10)).sum();
-            fw * ch * 2 + per_tile + (1 << 20)
-        }
-        ImageFormat::Exr => fw * fh * 72,
+        ImageFormat::Png => fw * ch * 2 + tiles(ch, 2, 96 << 10) + (1 << 20),
+        ImageFormat::Exr => fw * ch * 4 * 16 * 3 + tiles(ch * 4, 64, 96 << 10) + (1 << 20),
     }
 }
 
@@ -117,14 +107,13 @@ fn check_memory(headers: &[(String, TileHeader)], budget: Option<u64>) -> Result
         return Ok(());
     };
     let w = &headers[0].1.window;
-    let gb = |b: u64| format!("{:.2} GB", b as f64 / 1e9);
-    let how = match headers[0].1.format {
-        ImageFormat::Exr => "EXR tiles and their frame are held whole; PNG tiles are streamed row by row",
-        ImageFormat::Png => "PNG tiles are streamed row by row",
+    let gb = |b: u64| match b {
+        b if b >= 1 << 30 => format!("{:.2} GB", b as f64 / 1e9),
+        b => format!("{:.1} MB", b as f64 / 1e6),
     };
     refuse!(
         "the {}x{} frame needs about {} in memory, more than the {} allowed (PHONGRT_MAX_MEMORY, or \
-         MemAvailable); {how}",
+         MemAvailable), streaming rows",
         w.full_width,
         w.full_height,
         gb(need),
@@ -139,13 +128,7 @@ fn stream_png(output: &Path, tiles: &[PathBuf], headers: &[(String, TileHeader)]
     let first = &headers[0].1;
     let (fw, fh, ch) = (first.window.full_width, first.window.full_height, first.channels);
     let out_error = |source| ImageError::Write { path: output.to_path_buf(), source };
-    let target = std::fs::canonicalize(output).unwrap_or_else(|_| output.to_path_buf());
-    let dir = match target.parent() {
-        Some(d) if !d.as_os_str().is_empty() => d.to_path_buf(),
-        _ => PathBuf::from("."),
-    };
-    let name = target.file_name().map(|n| n.to_string_lossy().into_owned()).unwrap_or_default();
-    let mut tmp = crate::temp_file::TempFile::create(&dir, &name).map_err(out_error)?;
+    let (target, mut tmp) = output_temp(output)?;
     {
         let mut sink = std::io::BufWriter::new(tmp.file());
         let mut writer = image_out::png_writer(&mut sink, fw, fh, ch == 4, None, None)?;
@@ -182,6 +165,201 @@ fn stream_png(output: &Path, tiles: &[PathBuf], headers: &[(String, TileHeader)]
     }
     tmp.file().sync_all().map_err(out_error)?;
     tmp.persist(&target).map_err(out_error)
+}
+
+/// The file `output` really names (through links) and a new temp file beside it, to be
+/// persisted onto it once complete.
+fn output_temp(output: &Path) -> Result<(PathBuf, crate::temp_file::TempFile), ImageError> {
+    let out_error = |source| ImageError::Write { path: output.to_path_buf(), source };
+    let target = std::fs::canonicalize(output).unwrap_or_else(|_| output.to_path_buf());
+    let dir = match target.parent() {
+        Some(d) if !d.as_os_str().is_empty() => d.to_path_buf(),
+        _ => PathBuf::from("."),
+    };
+    let name = target.file_name().map(|n| n.to_string_lossy().into_owned()).unwrap_or_default();
+    let tmp = crate::temp_file::TempFile::create(&dir, &name).map_err(out_error)?;
+    Ok((target, tmp))
+}
+
+/// Stream EXR tiles into `output` one block of rows at a time (ZIP, 16 rows a block, increasing
+/// line order): each block's rows are put together from the tiles that cross them, each tile
+/// decoded block by block as its rows are needed (opened at its first row, dropped after its
+/// last), so memory stays at a few blocks of rows whatever the frame's size.
+fn stream_exr(output: &Path, tiles: &[PathBuf], headers: &[(String, TileHeader)]) -> Result<(), ImageError> {
+    use exr::block::writer::ChunksWriter;
+    use exr::prelude::*;
+    use std::io::Write;
+    let first = &headers[0].1;
+    let (fw, fh, ch) = (first.window.full_width, first.window.full_height, first.channels);
+    let out_error = |source| ImageError::Write { path: output.to_path_buf(), source };
+    let (target, mut tmp) = output_temp(output)?;
+
+    // Compute the output's header: the frame, RGB(A) f32, as `render` writes a whole frame.
+    let names: &[&str] = if ch == 4 { &["A", "B", "G", "R"] } else { &["B", "G", "R"] };
+    let channels = names.iter().map(|n| ChannelDescription::new(*n, SampleType::F32, true)).collect();
+    let mut header = exr::meta::header::Header::new(Text::from(""), (fw as usize, fh as usize), channels)
+        .with_encoding(Compression::ZIP16, exr::meta::BlockDescription::ScanLines, LineOrder::Increasing);
+    header.own_attributes.software_name = Some(Text::from("phongrt"));
+    let out_channels = header.channels.clone();
+
+    // Write the blocks in order, each from the tiles' rows; a failure to read a tile is kept
+    // aside and returned once the writer has stopped.
+    let mut failure: Option<ImageError> = None;
+    let mut rows = ExrRowSource::new(tiles, headers);
+    let mut sink = std::io::BufWriter::new(tmp.file());
+    let written = exr::block::write(&mut sink, SmallVec::from_elem(header, 1), true, |meta, chunks| {
+        let mut compressor = chunks.sequential_blocks_compressor(&meta);
+        for (index, block) in meta.enumerate_ordered_header_block_indices() {
+            let (y0, n) = (block.pixel_position.y() as u32, block.pixel_size.y() as u32);
+            let frame_rows = match rows.rows(y0, n) {
+                Ok(r) => r,
+                Err(e) => {
+                    failure = Some(e);
+                    return Err(exr::error::Error::Aborted);
+                }
+            };
+            let data = exr::block::UncompressedBlock::from_lines(&out_channels, block, |line| {
+                // The output's channels are named in order A, B, G, R (or B, G, R): slots 3, 2, 1, 0.
+                let slot = ch - 1 - line.location.channel;
+                // Block positions are the frame's (the output's data window starts at 0, 0).
+                let r = line.location.position.y() - y0 as usize;
+                let row = &frame_rows[r * fw as usize * ch..];
+                let _ = line.write_samples(|x| row[x * ch + slot]);
+            });
+            compressor.compress_block(index, data)?;
+        }
+        Ok(())
+    });
+    if let Some(e) = failure {
+        return Err(e);
+    }
+    written.map_err(ImageError::EncodeExr)?;
+    sink.flush().map_err(out_error)?;
+    drop(sink);
+    tmp.file().sync_all().map_err(out_error)?;
+    tmp.persist(&target).map_err(out_error)
+}
+
+/// The frame's rows, top to bottom, from EXR tiles read block by block.
+struct ExrRowSource<'a> {
+    tiles: &'a [PathBuf],
+    headers: &'a [(String, TileHeader)],
+    /// The tiles by their first row, not yet opened.
+    order: Vec<usize>,
+    next: usize,
+    open: Vec<ExrTileRows>,
+    /// The frame's channels per pixel (3 or 4).
+    ch: usize,
+    width: usize,
+}
+
+/// One EXR tile being read block by block: its decoded rows not yet used, by frame row.
+struct ExrTileRows {
+    tile: usize,
+    blocks: exr::block::reader::SequentialBlockDecompressor<
+        exr::block::reader::AllChunksReader<std::io::BufReader<std::fs::File>>,
+    >,
+    /// Each of the tile's channels' slot in an RGBA pixel (R 0, G 1, B 2, A 3).
+    slots: Vec<usize>,
+    rows: std::collections::BTreeMap<u32, Vec<f32>>,
+}
+
+impl<'a> ExrRowSource<'a> {
+    fn new(tiles: &'a [PathBuf], headers: &'a [(String, TileHeader)]) -> Self {
+        let mut order: Vec<usize> = (0..headers.len()).collect();
+        order.sort_by_key(|&i| (headers[i].1.window.y0, headers[i].1.window.x0));
+        let first = &headers[0].1;
+        ExrRowSource {
+            tiles,
+            headers,
+            order,
+            next: 0,
+            open: Vec::new(),
+            ch: first.channels,
+            width: first.window.full_width as usize,
+        }
+    }
+
+    /// Frame rows `y0..y0 + n`, RGB(A) f32 interleaved, row after row.
+    fn rows(&mut self, y0: u32, n: u32) -> Result<Vec<f32>, ImageError> {
+        let (w, ch) = (self.width, self.ch);
+        let mut out = vec![0f32; w * ch * n as usize];
+        for y in y0..y0 + n {
+            self.open_tiles_at(y)?;
+            let row = &mut out[(y - y0) as usize * w * ch..][..w * ch];
+            for t in &mut self.open {
+                let win = &self.headers[t.tile].1.window;
+                let src = t.row(y, &self.tiles[t.tile], win)?;
+                let at = win.x0 as usize * ch;
+                row[at..at + src.len()].copy_from_slice(&src);
+            }
+            let headers = self.headers;
+            self.open.retain(|t| headers[t.tile].1.window.y1 > y + 1);
+        }
+        Ok(out)
+    }
+
+    /// Open the tiles whose first row is `y`, checking they are still what their headers said.
+    fn open_tiles_at(&mut self, y: u32) -> Result<(), ImageError> {
+        while let Some(&i) = self.order.get(self.next).filter(|&&i| self.headers[i].1.window.y0 == y) {
+            let path = &self.tiles[i];
+            if image_out::read_tile_header(path)? != self.headers[i].1 {
+                return Err(ImageError::Changed { path: path.clone() });
+            }
+            self.open.push(ExrTileRows::open(i, path, self.ch)?);
+            self.next += 1;
+        }
+        Ok(())
+    }
+}
+
+impl ExrTileRows {
+    fn open(tile: usize, path: &Path, ch: usize) -> Result<Self, ImageError> {
+        use exr::block::reader::ChunksReader;
+        let decode_error = |source| ImageError::DecodeExr { path: path.to_path_buf(), source };
+        let file = std::fs::File::open(path).map_err(|e| decode_error(exr::error::Error::from(e)))?;
+        let reader = exr::block::read(std::io::BufReader::new(file), true).map_err(decode_error)?;
+        let slots = reader.headers()[0]
+            .channels
+            .list
+            .iter()
+            .map(|c| match c.name.to_string().as_str() {
+                "R" => 0,
+                "G" => 1,
+                "B" => 2,
+                "A" if ch == 4 => 3,
+                _ => usize::MAX,
+            })
+            .collect();
+        let blocks = reader.all_chunks(true).map_err(decode_error)?.sequential_decompressor(true);
+        Ok(ExrTileRows { tile, blocks, slots, rows: Default::default() })
+    }
+
+    /// The tile's part of frame row `y` (its window's width x `ch` floats), decoding blocks until
+    /// it is there.
+    fn row(&mut self, y: u32, path: &Path, win: &Window) -> Result<Vec<f32>, ImageError> {
+        let decode_error = |source| ImageError::DecodeExr { path: path.to_path_buf(), source };
+        let ch = if self.slots.contains(&3) { 4 } else { 3 };
+        while !self.rows.contains_key(&y) {
+            let Some(block) = self.blocks.decompress_next_block() else {
+                return Err(decode_error(exr::error::Error::from(truncated())));
+            };
+            let block = block.map_err(decode_error)?;
+            let channels = &self.blocks.meta_data().headers[0].channels;
+            for line in block.lines(channels) {
+                let fy = win.y0 + line.location.position.y() as u32;
+                let slot = self.slots[line.location.channel];
+                let row = self.rows.entry(fy).or_insert_with(|| vec![0f32; win.width() as usize * ch]);
+                if slot == usize::MAX {
+                    continue;
+                }
+                for (x, v) in line.read_samples::<f32>().enumerate() {
+                    row[x * ch + slot] = v.map_err(decode_error)?;
+                }
+            }
+        }
+        Ok(self.rows.remove(&y).unwrap_or_default())
+    }
 }
 
 /// A tile's image data ended before its last row.
@@ -286,37 +464,4 @@ fn check_same_render(tiles: &[(String, TileHeader)]) -> Result<(), StitchError> 
         }
     }
     Ok(())
-}
-
-/// The checked EXR tiles' pixels in one frame, encoded as `format`.
-fn assemble_linear(tiles: &[(String, Tile)], format: ImageFormat) -> Result<Vec<u8>, StitchError> {
-    let first = &tiles[0].1;
-    let (fw, fh) = (first.window.full_width, first.window.full_height);
-    let TilePixels::Linear { channels, .. } = first.pixels else { unreachable!("EXR tiles, checked above") };
-    let mut data = vec![0f32; fw as usize * fh as usize * channels];
-    for (name, t) in tiles {
-        let TilePixels::Linear { data: src, .. } = &t.pixels else {
-            refuse!("{name}: not an EXR tile (it changed since its header was read)");
-        };
-        blit_rows(&mut data, src, &t.window, fw, channels);
-    }
-    let mut img = Image::new(fw, fh);
-    let mut alpha = Vec::new();
-    for (i, px) in data.chunks_exact(channels).enumerate() {
-        img.pixels[i] = Vec3::new(px[0], px[1], px[2]);
-        if channels == 4 {
-            alpha.push(px[3]);
-        }
-    }
-    let opts = EncodeOptions { alpha: (channels == 4).then_some(&alpha[..]), ..Default::default() };
-    Ok(image_out::encode(&img, format, &opts)?)
-}
-
-/// Copy a tile's rows into the full frame.
-fn blit_rows<T: Copy>(dst: &mut [T], src: &[T], w: &Window, full_width: u32, channels: usize) {
-    let row = w.width() as usize * channels;
-    for (r, line) in src.chunks_exact(row).enumerate() {
-        let at = ((w.y0 as usize + r) * full_width as usize + w.x0 as usize) * channels;
-        dst[at..at + row].copy_from_slice(line);
-    }
 }

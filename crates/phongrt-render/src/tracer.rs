@@ -133,6 +133,9 @@ pub(crate) struct Tracer<'a> {
     pub(crate) win: Window,
     pub(crate) tiles_x: u32,
     pub(crate) meter: &'a Meter<'a>,
+    /// Single-ray samples between two reports to the meter (fewer when a sample costs many
+    /// rays, so that the progress moves at least about once a second).
+    pub(crate) batch: u64,
 }
 
 /// A tile being traced: its corner and size in frame coordinates, and what it gathers.
@@ -270,7 +273,7 @@ impl Tracer<'_> {
 
     /// Every ray alone.
     fn trace_single(&self, work: &mut TileWork) {
-        // Samples counted but not yet reported to the meter (reported every 64, and per pixel).
+        // Samples counted but not yet reported to the meter (reported every `batch`, and per pixel).
         let mut pending = 0u64;
         for y in work.fy0..work.fy0 + work.th {
             for x in work.fx0..work.fx0 + work.tw {
@@ -278,20 +281,13 @@ impl Tracer<'_> {
                 let mut hits = 0u32;
                 for s in 0..self.settings.spp {
                     pending += 1;
-                    if pending == 64 {
+                    if pending >= self.batch {
                         self.meter.add(std::mem::take(&mut pending));
                     }
-                    let ray = self.camera_ray(x, y, s);
-                    if self.alpha {
-                        work.counts.coverage += 1;
-                        if self.world.scene.intersect1(ray).is_none() {
-                            continue;
-                        }
+                    if let Some(c) = self.trace_sample(x, y, s, &mut work.counts) {
                         hits += 1;
+                        sum += work.clamp(c);
                     }
-                    let mut rng = self.sample_rng(x, y, s);
-                    let c = self.world.shade(ray, &mut work.counts, &mut rng);
-                    sum += work.clamp(c);
                 }
                 let i = work.index(x, y);
                 let spp = self.settings.spp as f32;
@@ -302,6 +298,18 @@ impl Tracer<'_> {
             }
             self.meter.add(std::mem::take(&mut pending));
         }
+    }
+
+    /// Sample `s` of frame pixel (x, y) as a single ray: its radiance, or `None` when an alpha
+    /// channel is asked for and the ray meets nothing.
+    pub(crate) fn trace_sample(&self, x: u32, y: u32, s: u32, counts: &mut RayCounts) -> Option<Vec3> {
+        let ray = self.camera_ray(x, y, s);
+        if self.alpha {
+            counts.coverage += 1;
+            self.world.scene.intersect1(ray)?;
+        }
+        let mut rng = self.sample_rng(x, y, s);
+        Some(self.world.shade(ray, counts, &mut rng))
     }
 }
 

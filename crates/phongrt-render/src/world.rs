@@ -242,11 +242,14 @@ pub struct Ground {
     pub height: Option<f32>,
     /// Diffuse reflectance.
     pub kd: Vec3,
+    /// Half the side of the square plane, in scene units; `None`: 20 times the diagonal of the
+    /// scene bounds ([`Ground::radius_for_view`] sizes it so a view does not see its far edge).
+    pub radius: Option<f32>,
 }
 
 impl Default for Ground {
     fn default() -> Self {
-        Ground { up: Vec3::Y, height: None, kd: Vec3::splat(0.6) }
+        Ground { up: Vec3::Y, height: None, kd: Vec3::splat(0.6), radius: None }
     }
 }
 
@@ -255,10 +258,49 @@ impl Ground {
     /// view that frames the bounds (40 times their diagonal), front side towards `up`. `None`
     /// for a zero or non-finite `up` or height.
     pub fn triangles(&self, bounds: (Vec3, Vec3)) -> Option<(Vec<Vec3>, Vec<[u32; 3]>)> {
+        let (o, up) = self.origin(bounds)?;
+        let diag = (bounds.1 - bounds.0).length().max(f32::MIN_POSITIVE);
+        let (t, b) = orthonormal_basis(up);
+        let r = self.radius.filter(|r| r.is_finite() && *r > 0.0).unwrap_or(20.0 * diag);
+        let positions = vec![o - r * t - r * b, o + r * t - r * b, o + r * t + r * b, o - r * t + r * b];
+        // Counter-clockwise seen from above, so the front faces `up`.
+        let (i0, i1) = if t.cross(b).dot(up) > 0.0 { ([0, 1, 2], [0, 2, 3]) } else { ([0, 2, 1], [0, 3, 2]) };
+        Some((positions, vec![i0, i1]))
+    }
+
+    /// The half side the plane needs so that `camera` (at `aspect`) sees no edge of it: the
+    /// farthest point where a ray through the top row of the frame meets the plane, from the
+    /// plane's centre along its sides, plus a quarter; at least 20 and at most 200 times the
+    /// bounds' diagonal (200 when a ray of the top row runs within half a degree of the horizon
+    /// or above it: then the far edge stands in for the horizon).
+    pub fn radius_for_view(&self, bounds: (Vec3, Vec3), camera: &crate::Camera, aspect: f32) -> f32 {
+        let diag = (bounds.1 - bounds.0).length().max(f32::MIN_POSITIVE);
+        let (lo, hi) = (20.0 * diag, 200.0 * diag);
+        let (Some((o, up)), Some(f)) = (self.origin(bounds), camera.frame(aspect)) else { return lo };
+        let (t, b) = orthonormal_basis(up);
+        let height = (f.eye - o).dot(up);
+        if !(height > 0.0) {
+            return lo;
+        }
+        let mut need = lo;
+        // The top row's two corners and its middle.
+        for x in [-1.0f32, 0.0, 1.0] {
+            let d = (f.forward + f.up + x * f.right).normalize();
+            let down = -d.dot(up);
+            if !(down > 0.5f32.to_radians().sin()) {
+                return hi;
+            }
+            let hit = f.eye + (height / down) * d - o;
+            need = need.max(1.25 * hit.dot(t).abs().max(hit.dot(b).abs()));
+        }
+        need.min(hi)
+    }
+
+    /// The plane's centre (under the bounds' centre) and its unit normal.
+    fn origin(&self, bounds: (Vec3, Vec3)) -> Option<(Vec3, Vec3)> {
         let up = self.up.try_normalize().filter(|u| u.is_finite())?;
         let (lo, hi) = bounds;
         let center = 0.5 * (lo + hi);
-        let diag = (hi - lo).length().max(f32::MIN_POSITIVE);
         // The lowest corner of the bounds along `up`.
         let corners = (0..8).map(|k| {
             Vec3::new(
@@ -273,12 +315,7 @@ impl Ground {
             return None;
         }
         let o = center + (h - center.dot(up)) * up;
-        let (t, b) = orthonormal_basis(up);
-        let r = 20.0 * diag;
-        let positions = vec![o - r * t - r * b, o + r * t - r * b, o + r * t + r * b, o - r * t + r * b];
-        // Counter-clockwise seen from above, so the front faces `up`.
-        let (i0, i1) = if t.cross(b).dot(up) > 0.0 { ([0, 1, 2], [0, 2, 3]) } else { ([0, 2, 1], [0, 3, 2]) };
-        Some((positions, vec![i0, i1]))
+        o.is_finite().then_some((o, up))
     }
 }
 
@@ -649,6 +686,38 @@ impl World {
             }),
             max_depth: self.max_depth,
         }
+    }
+
+    /// The most rays one pixel sample can cost by the effects plan: a primary ray, then at
+    /// each shading point a shadow ray per hard-shadow light, `samples` per area light, the
+    /// ambient-occlusion and environment samples and a terminator check per light, and, where an
+    /// object reflects or refracts, up to two branches per bounce to `max_depth`. An upper
+    /// bound: rays that miss, or points facing away from a light, cost less.
+    pub fn rays_per_sample_bound(&self) -> f64 {
+        // Compute the rays at one shading point.
+        let lights: f64 = self
+            .lights
+            .iter()
+            .map(|l| match *l {
+                Light::Sphere { samples, .. } => samples.max(1) as f64,
+                _ if l.casts_shadows() => 2.0,
+                _ => 0.0,
+            })
+            .sum();
+        let ao = self.ambient_occlusion.map_or(0.0, |a| a.samples.max(1) as f64);
+        let env = self.environment.as_ref().map_or(0.0, |e| e.samples.max(1) as f64);
+        let at_point = 1.0 + lights + ao + env;
+
+        // Compute the branching of reflection and refraction.
+        let reflects = self.objects.iter().any(|o| o.surface.reflects());
+        let refracts = self.objects.iter().any(|o| o.surface.refracts());
+        let branches = match (reflects, refracts) {
+            (_, true) => 2.0,
+            (true, false) => 1.0,
+            (false, false) => 0.0,
+        };
+        let points: f64 = (0..=self.max_depth.min(16)).map(|k| f64::powi(branches, k as i32)).sum();
+        at_point * points
     }
 
     /// Radiance along a camera ray; `rng` feeds area-light and AO sampling.

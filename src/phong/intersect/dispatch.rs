@@ -1,42 +1,23 @@
 //! Run-time multiversioning of the patch test: [`intersect_with`] compiled for baseline x86-64
-//! and again for x86-64-v3 (AVX2 and FMA: three-operand VEX encodings, fused dot products in
-//! the hull test), the one the CPU runs chosen by `is_x86_feature_detected!` (detected once,
-//! then read from the standard library's cache). The release binary stays portable.
+//! and again for x86-64-v3's AVX2 and FMA (three-operand VEX encodings, fused dot products in
+//! the hull test), the one the CPU runs chosen at run time by the `multiversion` crate (the
+//! features detected once, then read from its cache). The release binary stays portable, and
+//! this module holds no `unsafe` of its own: the call of the version compiled for features the
+//! baseline target does not promise is the crate's, right after it has detected them.
 //!
 //! Both versions give the same hits bit for bit: Rust never contracts `a * b + c` into a fused
 //! operation, so the only fused arithmetic is the hull test's, whose rounding its slack absorbs
 //! either way (it only turns away rays that cannot hit).
-//!
-//! This module holds the one `unsafe` outside the Embree layer: the call of a function compiled
-//! for features the baseline target does not promise, right after detecting them.
+
+use multiversion::multiversion;
 
 use super::{intersect_with, Method, PatchHit, TestOutcome};
 use crate::phong::patch::Patch;
 use crate::phong::real::{Real, V3};
 
-/// [`intersect_with`] compiled with AVX2 and FMA enabled (and the hull test fused).
-#[cfg(target_arch = "x86_64")]
-#[target_feature(enable = "avx2,fma")]
-fn intersect_v3<T: Real>(
-    p: &Patch<T>,
-    org: V3<T>,
-    dir: V3<T>,
-    tmin: T,
-    tmax: T,
-    method: Method,
-    cull: bool,
-) -> (Option<PatchHit<T>>, TestOutcome) {
-    intersect_with::<T, true>(p, org, dir, tmin, tmax, method, cull)
-}
-
-/// Whether this CPU runs [`intersect_v3`].
-#[cfg(target_arch = "x86_64")]
-#[inline(always)]
-pub(super) fn has_v3() -> bool {
-    std::arch::is_x86_feature_detected!("avx2") && std::arch::is_x86_feature_detected!("fma")
-}
-
-/// [`intersect_with`] in the version this CPU runs best.
+/// [`intersect_with`] in the version this CPU runs best: with AVX2 and FMA (and the hull test
+/// fused) where the CPU has both, the baseline otherwise.
+#[multiversion(targets("x86_64+avx2+fma"))]
 #[inline(always)]
 pub(super) fn intersect_dispatched<T: Real>(
     p: &Patch<T>,
@@ -47,13 +28,9 @@ pub(super) fn intersect_dispatched<T: Real>(
     method: Method,
     cull: bool,
 ) -> (Option<PatchHit<T>>, TestOutcome) {
-    #[cfg(target_arch = "x86_64")]
-    if has_v3() {
-        // SAFETY: `intersect_v3` is safe Rust whose only requirement is that the CPU has the
-        // AVX2 and FMA features it is compiled with; `has_v3` has just detected both at run time.
-        return unsafe { intersect_v3(p, org, dir, tmin, tmax, method, cull) };
-    }
-    intersect_with::<T, false>(p, org, dir, tmin, tmax, method, cull)
+    intersect_with::<T, { multiversion::target::target_cfg_f!(target_feature = "fma") }>(
+        p, org, dir, tmin, tmax, method, cull,
+    )
 }
 
 /// [`intersect_with`] in its baseline version, whatever the CPU: for comparing the two.

@@ -6,10 +6,10 @@
 //! ray's planes, the projected conics, splitting a degenerate conic, line–conic), `hull` (the
 //! bounds and prism rejection), `analytic` (enumerate the pencil's degenerate members, split
 //! them into lines, offer the roots), `certified` (the one-to-one certificate and Newton in the
-//! plane), `newton` (Newton in space), `domain` (the triangle's tolerances, the clamp and the
-//! on-the-ray test) and `retry` (the f64 retry). [`intersect`] below dispatches between them,
-//! compiled twice by `dispatch`: for baseline x86-64 and for x86-64-v3 (AVX2 and FMA), the one
-//! the CPU runs chosen at run time.
+//! plane), `lanes` (the certified method on 8 rays at once), `newton` (Newton in space),
+//! `domain` (the triangle's tolerances, the clamp and the on-the-ray test) and `retry` (the f64
+//! retry). [`intersect`] below dispatches between them, compiled twice by `dispatch`: for
+//! baseline x86-64 and for x86-64-v3 (AVX2 and FMA), the one the CPU runs chosen at run time.
 
 mod analytic;
 mod certified;
@@ -17,10 +17,12 @@ mod conic;
 mod dispatch;
 mod domain;
 mod hull;
+mod lanes;
 mod newton;
 mod poly;
 mod retry;
 
+pub use lanes::{certified_lanes, LaneAnswers, LaneDecision, LaneRays, LANES};
 pub use poly::{solve_cubic, solve_quadratic};
 
 use super::patch::Patch;

@@ -1,0 +1,672 @@
+//! Eight lanes at once: the certified method of [`Method::Certified`](super::Method::Certified)
+//! for up to [`LANES`] rays against one f32 patch, with every step (the local frame, the hull and
+//! prism test, the projection, the certificate, Newton in the plane and the Newton step in
+//! space) run on all lanes together, as plain loops over fixed-size arrays that the compiler
+//! vectorises: AVX2 (one register of 8 lanes) or SSE 4.1 (two of 4), chosen at run time, or
+//! the baseline target's own vectors.
+//!
+//! Each lane computes exactly what the scalar path computes, in the same order: no fused
+//! operations (Rust never contracts `a * b + c`), the same `min`/`max` (by comparison, as
+//! [`Real::max`]), the same constants, so a lane it decides has bit for bit the scalar path's
+//! answer. What it does not decide (the certificate fails, Newton does not converge, the root
+//! lies in the band where the scalar path asks f64, a certified miss on a sliver seen from afar)
+//! it leaves [`LaneDecision::Unsure`], for the caller's scalar
+//! [`intersect_in_hull_traced`](super::intersect_in_hull_traced), which also has the hull passed.
+
+// The lane loops index every array by the lane: the form the vectoriser turns into one
+// instruction per operation.
+#![allow(clippy::needless_range_loop)]
+
+use std::ops::{Add, BitAnd, BitOr, Div, Mul, Neg, Not, Sub};
+
+use multiversion::multiversion;
+
+use super::domain::{domain_tolerance, edge_band};
+use super::retry::sliver_from_afar;
+use super::PatchHit;
+use crate::phong::patch::Patch;
+use crate::phong::real::{Real, V3};
+
+/// The lanes of one block: a packet of 8 rays, or half of one of 16.
+pub const LANES: usize = 8;
+
+/// Up to [`LANES`] rays, structure of arrays, world space. Lanes the caller does not need may
+/// hold anything (their answers are computed and ignored).
+#[derive(Clone, Copy, Debug)]
+pub struct LaneRays {
+    /// The origins' x, y and z.
+    pub org: [[f32; LANES]; 3],
+    /// The directions' x, y and z.
+    pub dir: [[f32; LANES]; 3],
+    /// The open interval's lower ends.
+    pub tmin: [f32; LANES],
+    /// The open interval's upper ends.
+    pub tmax: [f32; LANES],
+}
+
+/// What the lane kernel decided for one lane.
+#[derive(Clone, Copy, Debug, PartialEq, Eq)]
+pub enum LaneDecision {
+    /// No hit: turned away as bad input, rejected by the hull, or a certified miss.
+    Miss,
+    /// A certified hit, in [`LaneAnswers::hit`].
+    Hit,
+    /// Past the hull, not settled: the scalar path decides.
+    Unsure,
+}
+
+/// The answers of [`certified_lanes`].
+#[derive(Clone, Copy, Debug)]
+pub struct LaneAnswers {
+    /// Per lane, what was decided.
+    pub decision: [LaneDecision; LANES],
+    /// The hits' `t`.
+    pub t: [f32; LANES],
+    /// The hits' `u`.
+    pub u: [f32; LANES],
+    /// The hits' `v`.
+    pub v: [f32; LANES],
+}
+
+impl LaneAnswers {
+    /// Lane `i`'s hit, where [`LaneAnswers::decision`] says [`LaneDecision::Hit`].
+    pub fn hit(&self, i: usize) -> Option<PatchHit<f32>> {
+        (self.decision[i] == LaneDecision::Hit).then(|| PatchHit { t: self.t[i], u: self.u[i], v: self.v[i] })
+    }
+}
+
+/// [`Method::Certified`](super::Method::Certified) on every lane of `rays` against `p`, 8 lanes
+/// at once where the CPU allows: each decided lane's answer is the scalar path's, bit for bit.
+#[inline]
+pub fn certified_lanes(p: &Patch<f32>, rays: &LaneRays) -> LaneAnswers {
+    if p.degenerate {
+        return LaneAnswers::all(LaneDecision::Miss);
+    }
+    kernel_for_cpu(p, rays)
+}
+
+/// [`kernel`] compiled for the widest vectors the CPU has, chosen at run time by the
+/// `multiversion` crate: AVX2 (one 256-bit register per 8 lanes), SSE 4.1 (two 128-bit
+/// registers, with `blendv` selects), or the baseline target's SSE2.
+#[multiversion(targets("x86_64+avx2", "x86_64+sse4.1"))]
+fn kernel_for_cpu(p: &Patch<f32>, rays: &LaneRays) -> LaneAnswers {
+    kernel(p, rays)
+}
+
+impl LaneAnswers {
+    fn all(d: LaneDecision) -> Self {
+        LaneAnswers { decision: [d; LANES], t: [0.0; LANES], u: [0.0; LANES], v: [0.0; LANES] }
+    }
+}
+
+// ---------------------------------------------------------------------------------------------
+// Lanes of f32 and of bool, with the scalar path's operations.
+
+/// One f32 per lane.
+#[derive(Clone, Copy)]
+#[repr(align(32))]
+struct F([f32; LANES]);
+
+/// One mask per lane: all bits set (true) or none, as the vector compares give them, so that
+/// the masks, their logic and the selects stay in the same registers as the floats.
+#[derive(Clone, Copy)]
+#[repr(align(32))]
+struct M([u32; LANES]);
+
+/// `f(a[i])` for every lane.
+#[inline(always)]
+fn map(a: F, f: impl Fn(f32) -> f32) -> F {
+    let mut r = [0.0; LANES];
+    for i in 0..LANES {
+        r[i] = f(a.0[i]);
+    }
+    F(r)
+}
+
+/// `f(a[i], b[i])` for every lane.
+#[inline(always)]
+fn zip(a: F, b: F, f: impl Fn(f32, f32) -> f32) -> F {
+    let mut r = [0.0; LANES];
+    for i in 0..LANES {
+        r[i] = f(a.0[i], b.0[i]);
+    }
+    F(r)
+}
+
+/// The mask of `f(a[i], b[i])`.
+#[inline(always)]
+fn test(a: F, b: F, f: impl Fn(f32, f32) -> bool) -> M {
+    let mut r = [0; LANES];
+    for i in 0..LANES {
+        r[i] = if f(a.0[i], b.0[i]) { u32::MAX } else { 0 };
+    }
+    M(r)
+}
+
+/// `f(a[i], b[i])` on the masks' bits.
+#[inline(always)]
+fn bits(a: M, b: M, f: impl Fn(u32, u32) -> u32) -> M {
+    let mut r = [0; LANES];
+    for i in 0..LANES {
+        r[i] = f(a.0[i], b.0[i]);
+    }
+    M(r)
+}
+
+impl F {
+    #[inline(always)]
+    fn splat(x: f32) -> F {
+        F([x; LANES])
+    }
+    #[inline(always)]
+    fn abs(self) -> F {
+        map(self, f32::abs)
+    }
+    #[inline(always)]
+    fn sqrt(self) -> F {
+        map(self, f32::sqrt)
+    }
+    /// [`Real::max`]: `o` when either is NaN.
+    #[inline(always)]
+    fn max(self, o: F) -> F {
+        select(self.gt(o), self, o)
+    }
+    /// [`Real::min`]: `o` when either is NaN.
+    #[inline(always)]
+    fn min(self, o: F) -> F {
+        select(self.lt(o), self, o)
+    }
+    #[inline(always)]
+    fn gt(self, o: F) -> M {
+        test(self, o, |a, b| a > b)
+    }
+    #[inline(always)]
+    fn ge(self, o: F) -> M {
+        test(self, o, |a, b| a >= b)
+    }
+    #[inline(always)]
+    fn le(self, o: F) -> M {
+        test(self, o, |a, b| a <= b)
+    }
+    #[inline(always)]
+    fn lt(self, o: F) -> M {
+        test(self, o, |a, b| a < b)
+    }
+    #[inline(always)]
+    fn eq(self, o: F) -> M {
+        test(self, o, |a, b| a == b)
+    }
+    /// Neither infinite nor NaN: `|x| < inf`.
+    #[inline(always)]
+    fn finite(self) -> M {
+        self.abs().lt(F::splat(f32::INFINITY))
+    }
+    /// The sign bit is clear.
+    #[inline(always)]
+    fn sign_positive(self) -> M {
+        let mut r = [0; LANES];
+        for i in 0..LANES {
+            r[i] = ((self.0[i].to_bits() as i32) >> 31) as u32;
+        }
+        !M(r)
+    }
+}
+
+/// `a` where `m`, else `b` (on the bits, as a blend).
+#[inline(always)]
+fn select(m: M, a: F, b: F) -> F {
+    let mut r = [0.0; LANES];
+    for i in 0..LANES {
+        r[i] = f32::from_bits((a.0[i].to_bits() & m.0[i]) | (b.0[i].to_bits() & !m.0[i]));
+    }
+    F(r)
+}
+
+macro_rules! lane_op {
+    ($tr:ident, $f:ident, $op:tt) => {
+        impl $tr for F {
+            type Output = F;
+            #[inline(always)]
+            fn $f(self, o: F) -> F {
+                zip(self, o, |a, b| a $op b)
+            }
+        }
+    };
+}
+lane_op!(Add, add, +);
+lane_op!(Sub, sub, -);
+lane_op!(Mul, mul, *);
+lane_op!(Div, div, /);
+
+impl Neg for F {
+    type Output = F;
+    #[inline(always)]
+    fn neg(self) -> F {
+        map(self, |a| -a)
+    }
+}
+
+impl M {
+    #[inline(always)]
+    fn none() -> M {
+        M([0; LANES])
+    }
+    #[inline(always)]
+    fn any(self) -> bool {
+        self.0.iter().fold(0, |a, &b| a | b) != 0
+    }
+    #[inline(always)]
+    fn count(self) -> u32 {
+        self.0.iter().fold(0, |n, &b| n + (b & 1))
+    }
+    #[inline(always)]
+    fn lane(self, i: usize) -> bool {
+        self.0[i] != 0
+    }
+}
+
+impl BitAnd for M {
+    type Output = M;
+    #[inline(always)]
+    fn bitand(self, o: M) -> M {
+        bits(self, o, |a, b| a & b)
+    }
+}
+
+impl BitOr for M {
+    type Output = M;
+    #[inline(always)]
+    fn bitor(self, o: M) -> M {
+        bits(self, o, |a, b| a | b)
+    }
+}
+
+impl Not for M {
+    type Output = M;
+    #[inline(always)]
+    fn not(self) -> M {
+        bits(self, self, |a, _| !a)
+    }
+}
+
+/// A 3-vector per lane, with [`V3`]'s operations in its order.
+#[derive(Clone, Copy)]
+struct V {
+    x: F,
+    y: F,
+    z: F,
+}
+
+impl V {
+    #[inline(always)]
+    fn splat(a: V3<f32>) -> V {
+        V { x: F::splat(a.x), y: F::splat(a.y), z: F::splat(a.z) }
+    }
+    #[inline(always)]
+    fn dot(self, o: V) -> F {
+        self.x * o.x + self.y * o.y + self.z * o.z
+    }
+    #[inline(always)]
+    fn cross(self, o: V) -> V {
+        V { x: self.y * o.z - self.z * o.y, y: self.z * o.x - self.x * o.z, z: self.x * o.y - self.y * o.x }
+    }
+    #[inline(always)]
+    fn scale(self, s: F) -> V {
+        V { x: self.x * s, y: self.y * s, z: self.z * s }
+    }
+    #[inline(always)]
+    fn max_abs(self) -> F {
+        self.x.abs().max(self.y.abs()).max(self.z.abs())
+    }
+    #[inline(always)]
+    fn finite(self) -> M {
+        self.x.finite() & self.y.finite() & self.z.finite()
+    }
+}
+
+impl Add for V {
+    type Output = V;
+    #[inline(always)]
+    fn add(self, o: V) -> V {
+        V { x: self.x + o.x, y: self.y + o.y, z: self.z + o.z }
+    }
+}
+
+impl Sub for V {
+    type Output = V;
+    #[inline(always)]
+    fn sub(self, o: V) -> V {
+        V { x: self.x - o.x, y: self.y - o.y, z: self.z - o.z }
+    }
+}
+
+// ---------------------------------------------------------------------------------------------
+// The kernel, stage by stage (each the lane form of the scalar function it names).
+
+/// The patch's coefficients, one copy per lane.
+struct PatchLanes {
+    a: V,
+    b: V,
+    c: V,
+    d: V,
+    e: V,
+    f: V,
+}
+
+impl PatchLanes {
+    #[inline(always)]
+    fn new(p: &Patch<f32>) -> Self {
+        PatchLanes {
+            a: V::splat(p.a),
+            b: V::splat(p.b),
+            c: V::splat(p.c),
+            d: V::splat(p.d),
+            e: V::splat(p.e),
+            f: V::splat(p.f),
+        }
+    }
+
+    /// [`Patch::eval_local`].
+    #[inline(always)]
+    fn eval(&self, u: F, v: F) -> V {
+        self.a.scale(u * u)
+            + self.b.scale(v * v)
+            + self.c.scale(u * v)
+            + self.d.scale(u)
+            + self.e.scale(v)
+            + self.f
+    }
+
+    /// [`Patch::partials_local`].
+    #[inline(always)]
+    fn partials(&self, u: F, v: F) -> (V, V) {
+        let two = F::splat(2.0);
+        (self.a.scale(two * u) + self.c.scale(v) + self.d, self.b.scale(two * v) + self.c.scale(u) + self.e)
+    }
+}
+
+/// The lanes' state through the stages: which are still to be settled by the kernel and which
+/// are left to the scalar path.
+struct Lanes {
+    /// Still on the kernel's certified path.
+    live: M,
+    /// Left to the scalar path.
+    unsure: M,
+}
+
+impl Lanes {
+    /// Hand the live lanes where `m` to the scalar path.
+    #[inline(always)]
+    fn give_up(&mut self, m: M) {
+        self.unsure = self.unsure | (self.live & m);
+        self.live = self.live & !m;
+    }
+}
+
+/// The kernel: every lane through the scalar path's certified stages.
+#[inline(always)]
+fn kernel(p: &Patch<f32>, rays: &LaneRays) -> LaneAnswers {
+    // Compute the local ray (t is unchanged) and turn bad input away, as `intersect_with`.
+    let (c, s) = (V::splat(p.center), F::splat(p.inv_scale));
+    let org = V { x: F(rays.org[0]), y: F(rays.org[1]), z: F(rays.org[2]) };
+    let dir = V { x: F(rays.dir[0]), y: F(rays.dir[1]), z: F(rays.dir[2]) };
+    let (o, d) = ((org - c).scale(s), dir.scale(s));
+    let (tmin, tmax) = (F(rays.tmin), F(rays.tmax));
+    let zero = F::splat(0.0);
+    let bad = !(tmin.eq(tmin) & tmax.eq(tmax) & o.finite() & d.finite()) | d.max_abs().eq(zero);
+    let passed = !bad & hull_lanes(p, o, d, tmin, tmax);
+    let mut out = LaneAnswers::all(LaneDecision::Miss);
+    // One lane past the hull costs the scalar path less than all lanes through the stages below.
+    match passed.count() {
+        0 => return out,
+        1 => {
+            for i in (0..LANES).filter(|&i| passed.lane(i)) {
+                out.decision[i] = LaneDecision::Unsure;
+            }
+            return out;
+        }
+        _ => {}
+    }
+    // Compute the projection; a direction whose length over- or underflows is bad input too.
+    let Some((pr, ok)) = project_lanes(p, o, d) else { return out };
+    let mut lanes = Lanes { live: passed & ok, unsure: M::none() };
+    let (u, v, t) = certified_root(p, o, d, &pr, &mut lanes);
+    // Compute the decision, as `decide`, and leave a miss on a sliver seen from afar to the
+    // scalar path (it asks f64).
+    let inside = near(u, v, domain_tolerance::<f32>());
+    let hit = lanes.live & inside & t.gt(tmin) & t.lt(tmax);
+    lanes.give_up(!inside & near(u, v, edge_band::<f32>()));
+    let (cu, cv) = clamp_lanes(u, v);
+    for i in 0..LANES {
+        out.decision[i] = if lanes.unsure.lane(i) {
+            LaneDecision::Unsure
+        } else if hit.lane(i) {
+            LaneDecision::Hit
+        } else if lanes.live.lane(i) && sliver_from_afar(p, V3::new(o.x.0[i], o.y.0[i], o.z.0[i])) {
+            LaneDecision::Unsure
+        } else {
+            LaneDecision::Miss
+        };
+    }
+    (out.t, out.u, out.v) = (t.0, cu.0, cv.0);
+    out
+}
+
+/// `hits_hull` on every lane: clip `(tmin, tmax)` against the bounds and the prism.
+#[inline(always)]
+fn hull_lanes(p: &Patch<f32>, o: V, d: V, tmin: F, tmax: F) -> M {
+    let (mut t0, mut t1) = (tmin, tmax);
+    let g3 = <f32 as Real>::gamma(3);
+    let widen = F::splat(1.0 + g3 + g3);
+    let one = F::splat(1.0);
+    for (oo, dd, lo, hi) in
+        [(o.x, d.x, p.lo.x, p.hi.x), (o.y, d.y, p.lo.y, p.hi.y), (o.z, d.z, p.lo.z, p.hi.z)]
+    {
+        let inv = one / dd;
+        let (a, b) = ((F::splat(lo) - oo) * inv, (F::splat(hi) - oo) * inv);
+        let swap = a.gt(b);
+        let (near, far) = (select(swap, b, a), select(swap, a, b));
+        t0 = near.max(t0);
+        t1 = (far * widen).min(t1);
+    }
+    let (inf, ninf) = (F::splat(f32::INFINITY), F::splat(f32::NEG_INFINITY));
+    let om = o.max_abs();
+    let g8 = F::splat(<f32 as Real>::gamma(8));
+    for k in 0..5 {
+        let n = V::splat(p.prism_n[k]);
+        let h = F::splat(p.prism_h[k]);
+        let dist = h - n.dot(o);
+        let dn = n.dot(d);
+        let slack = g8 * (one + om + h.abs());
+        let t = (dist + slack) / dn;
+        let leaving = dn.sign_positive();
+        t1 = select(leaving, t, inf).min(t1);
+        t0 = select(leaving, ninf, t).max(t0);
+    }
+    t0.le(t1)
+}
+
+/// The projected conics `(F, G)`, 6 coefficients each, per lane.
+struct ProjLanes {
+    f: [F; 6],
+    g: [F; 6],
+}
+
+/// `project` on every lane, with the lanes where the direction normalises (`None` when none does).
+#[inline(always)]
+fn project_lanes(p: &Patch<f32>, o: V, d: V) -> Option<(ProjLanes, M)> {
+    // Compute `d.normalized()`.
+    let zero = F::splat(0.0);
+    let one = F::splat(1.0);
+    let l = d.dot(d).sqrt();
+    let ok = l.gt(zero) & l.finite();
+    if !ok.any() {
+        return None;
+    }
+    let n = d.scale(one / l);
+    // Compute the orthonormal basis (Duff et al., as `orthonormal_basis`).
+    let sign = select(n.z.lt(zero), -one, one);
+    let a = -one / (sign + n.z);
+    let b = n.x * n.y * a;
+    let n1 = V { x: one + sign * n.x * n.x * a, y: sign * b, z: -sign * n.x };
+    let n2 = V { x: b, y: sign + n.y * n.y * a, z: -n.y };
+    let pl = PatchLanes::new(p);
+    let f0 = pl.f - o;
+    let conic = |m: V| [m.dot(pl.a), m.dot(pl.b), m.dot(pl.c), m.dot(pl.d), m.dot(pl.e), m.dot(f0)];
+    Some((ProjLanes { f: conic(n1), g: conic(n2) }, ok))
+}
+
+/// `jacobian`: `[F_u, F_v, G_u, G_v]` at `(u, v)`.
+#[inline(always)]
+fn jacobian_lanes(pr: &ProjLanes, u: F, v: F) -> [F; 4] {
+    let ([fa, fb, fc, fd, fe, _], [ga, gb, gc, gd, ge, _]) = (pr.f, pr.g);
+    let two = F::splat(2.0);
+    [
+        two * fa * u + fc * v + fd,
+        fc * u + two * fb * v + fe,
+        two * ga * u + gc * v + gd,
+        gc * u + two * gb * v + ge,
+    ]
+}
+
+/// `certificate_holds` at the Jacobian `j`, for the anchor `(j0, 1 / det J0)`.
+#[inline(always)]
+fn certificate_lanes(j0: &[F; 4], inv: F, j: [F; 4]) -> M {
+    let m00 = (j0[3] * j[0] - j0[1] * j[2]) * inv;
+    let m01 = (j0[3] * j[1] - j0[1] * j[3]) * inv;
+    let m10 = (j0[0] * j[2] - j0[2] * j[0]) * inv;
+    let m11 = (j0[0] * j[3] - j0[2] * j[1]) * inv;
+    let h = (m01 + m10) * F::splat(0.5);
+    let zero = F::splat(0.0);
+    m00.gt(zero) & m11.gt(zero) & (m00 * m11 - h * h).gt(F::splat(0.01) * m00 * m11)
+}
+
+/// The corners' coordinates of the certificate's region (as `region`).
+fn region() -> (f32, f32) {
+    ((-0.25f64 / 3.0) as f32, (3.5f64 / 3.0) as f32)
+}
+
+/// `certified_newton` up to `decide`: the certificate on the region, the flat start, Newton in
+/// the plane, the point's `t`, the Newton step in space and the checks of the root. Lanes that
+/// fail a check are handed to the scalar path.
+#[inline(always)]
+fn certified_root(p: &Patch<f32>, o: V, d: V, pr: &ProjLanes, lanes: &mut Lanes) -> (F, F, F) {
+    // Compute the anchor and the certificate at the region's corners (`one_to_one_on_region`).
+    let third = F::splat((1.0f64 / 3.0) as f32);
+    let j0 = jacobian_lanes(pr, third, third);
+    let det0 = j0[0] * j0[3] - j0[1] * j0[2];
+    let j0n = j0.iter().fold(F::splat(0.0), |m, x| m.max(x.abs()));
+    let g64 = <f32 as Real>::gamma(64);
+    lanes.give_up(!det0.abs().gt(F::splat(g64.sqrt()) * j0n * j0n));
+    let inv = F::splat(1.0) / det0;
+    let (lo, hi) = region();
+    let (lo, hi) = (F::splat(lo), F::splat(hi));
+    for (cu, cv) in [(lo, lo), (hi, lo), (lo, hi)] {
+        lanes.give_up(!certificate_lanes(&j0, inv, jacobian_lanes(pr, cu, cv)));
+    }
+    if !lanes.live.any() {
+        let zero = F::splat(0.0);
+        return (zero, zero, zero);
+    }
+    let (u, v) = flat_start_lanes(pr, lanes);
+    let (u, v, converged) = newton_plane_lanes(pr, u, v, lanes);
+    lanes.give_up(!converged);
+    // Compute the point's ray parameter, and one Newton step in space inside the domain.
+    let pl = PatchLanes::new(p);
+    let t = (pl.eval(u, v) - o).dot(d) / d.dot(d);
+    let step = lanes.live & near(u, v, domain_tolerance::<f32>());
+    let (su, sv, st, ok) = newton_step_lanes(&pl, o, d, u, v, t);
+    lanes.give_up(step & !ok);
+    let (u, v, t) = (select(step, su, u), select(step, sv, v), select(step, st, t));
+    // The root must be on the ray, and R's only root (inside R, or the certificate at it).
+    let slack = F::splat(0.005);
+    let one = F::splat(1.0);
+    let in_r = u.ge(lo + slack) & v.ge(lo + slack) & (u + v).le(one - lo - slack);
+    let at_root = certificate_lanes(&j0, inv, jacobian_lanes(pr, u, v));
+    lanes.give_up(!on_ray_lanes(&pl, o, d, u, v, t) | !(in_r | at_root));
+    (u, v, t)
+}
+
+/// `flat_start`: the ray's hit with the flat triangle in the plane.
+#[inline(always)]
+fn flat_start_lanes(pr: &ProjLanes, lanes: &mut Lanes) -> (F, F) {
+    let ([fa, fb, _, fd, fe, ff], [ga, gb, _, gd, ge, gf]) = (pr.f, pr.g);
+    let (l00, l01, l10, l11) = (fa + fd, fb + fe, ga + gd, gb + ge);
+    let det = l00 * l11 - l01 * l10;
+    lanes.give_up(det.eq(F::splat(0.0)) | !det.finite());
+    let idet = F::splat(1.0) / det;
+    ((l01 * gf - l11 * ff) * idet, (l10 * ff - l00 * gf) * idet)
+}
+
+/// `newton_plane` on the live lanes: the last iterates and where they converged. A singular
+/// Jacobian or a non-finite step hands the lane to the scalar path.
+#[inline(always)]
+fn newton_plane_lanes(pr: &ProjLanes, mut u: F, mut v: F, lanes: &mut Lanes) -> (F, F, M) {
+    let ([fa, fb, fc, fd, fe, ff], [ga, gb, gc, gd, ge, gf]) = (pr.f, pr.g);
+    let mut run = lanes.live;
+    let mut converged = M::none();
+    let tol = F::splat(<f32 as Real>::gamma(64));
+    for _ in 0..8 {
+        let r0 = ((fa * u + fc * v + fd) * u + (fb * v + fe) * v) + ff;
+        let r1 = ((ga * u + gc * v + gd) * u + (gb * v + ge) * v) + gf;
+        let j = jacobian_lanes(pr, u, v);
+        let det = j[0] * j[3] - j[1] * j[2];
+        let idet = F::splat(1.0) / det;
+        let du = (j[1] * r1 - j[3] * r0) * idet;
+        let dv = (j[2] * r0 - j[0] * r1) * idet;
+        let fail = det.eq(F::splat(0.0)) | !det.finite() | !(du.finite() & dv.finite());
+        lanes.give_up(run & fail);
+        run = run & !fail;
+        u = select(run, u + du, u);
+        v = select(run, v + dv, v);
+        let done = run & du.abs().max(dv.abs()).le(tol);
+        converged = converged | done;
+        run = run & !done;
+        if !run.any() {
+            break;
+        }
+    }
+    (u, v, converged)
+}
+
+/// `newton_step`: one Newton step on `(u, v, t)` in space, and where it is finite and regular.
+#[inline(always)]
+fn newton_step_lanes(pl: &PatchLanes, o: V, d: V, u: F, v: F, t: F) -> (F, F, F, M) {
+    let (pu, pv) = pl.partials(u, v);
+    let r = pl.eval(u, v) - o - d.scale(t);
+    let nd = V { x: -d.x, y: -d.y, z: -d.z };
+    let det = pu.dot(pv.cross(nd));
+    let inv = F::splat(1.0) / det;
+    let du = -r.dot(pv.cross(nd)) * inv;
+    let dv = -pu.dot(r.cross(nd)) * inv;
+    let dt = -pu.dot(pv.cross(r)) * inv;
+    let (nu, nv, nt) = (u + du, v + dv, t + dt);
+    let ok = !(det.eq(F::splat(0.0)) | !det.finite()) & nu.finite() & nv.finite() & nt.finite();
+    (nu, nv, nt, ok)
+}
+
+/// `on_ray`: the surface point lies on the ray at `t` to rounding.
+#[inline(always)]
+fn on_ray_lanes(pl: &PatchLanes, o: V, d: V, u: F, v: F, t: F) -> M {
+    let dt = d.scale(t);
+    let scale = F::splat(1.0) + o.max_abs() + dt.max_abs();
+    let res = (pl.eval(u, v) - o - dt).max_abs();
+    res.le(F::splat(<f32 as Real>::gamma(1024)) * scale)
+}
+
+/// `near_domain`: `(u, v)` within `margin` of the triangle.
+#[inline(always)]
+fn near(u: F, v: F, margin: f32) -> M {
+    let m = F::splat(-margin);
+    u.ge(m) & v.ge(m) & (F::splat(1.0) - u - v).ge(m)
+}
+
+/// `clamp_to_triangle`.
+#[inline(always)]
+fn clamp_lanes(u: F, v: F) -> (F, F) {
+    let zero = F::splat(0.0);
+    let (u, v) = (u.max(zero), v.max(zero));
+    let s = u + v;
+    let over = s.gt(F::splat(1.0));
+    (select(over, u / s, u), select(over, v / s, v))
+}
