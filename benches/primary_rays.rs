@@ -1,11 +1,9 @@
 //! Primary-ray throughput through Embree: native triangles, flat triangles as user geometry
 //! (the floor of the callback route), and direct Phong patches, on a low-poly sphere.
 //! `cargo bench --bench primary_rays` prints ns per ray; Mrays/s = 1000 / ns.
-use criterion::{criterion_group, criterion_main, Criterion, Throughput};
+use criterion::{criterion_group, Criterion, Throughput};
 use glam::Vec3;
-use phongrt::embree::{
-    set_flush_denormals, Device, GeometryOptions, PhongMesh, Ray, Scene, UserGeometryOptions, UserTriangles,
-};
+use phongrt::embree::{Device, GeometryOptions, PhongMesh, Ray, Scene, UserTriangles};
 
 fn camera_rays(w: u32, h: u32) -> Vec<Ray> {
     let eye = Vec3::new(0.0, 0.0, 3.0);
@@ -21,30 +19,29 @@ fn camera_rays(w: u32, h: u32) -> Vec<Ray> {
 }
 
 fn bench(c: &mut Criterion) {
-    set_flush_denormals();
     let device = Device::with_config("threads=1").unwrap();
     let m = phongrt::scene::uv_sphere(12, 6, 1.0);
     let (p, n, idx) = (m.positions, m.normals, m.indices);
     let rays = camera_rays(128, 128);
     let mut native = Scene::new(&device).unwrap();
     native.attach_triangles(&p, &idx, GeometryOptions::default()).unwrap();
-    native.commit().unwrap();
+    let native = native.commit().unwrap();
     let mut user = Scene::new(&device).unwrap();
     user.attach_user(
         UserTriangles { positions: p.clone(), indices: idx.clone() },
-        UserGeometryOptions::default(),
+        GeometryOptions::default(),
     )
     .unwrap();
-    user.commit().unwrap();
+    let user = user.commit().unwrap();
 
     let mut phong = Scene::new(&device).unwrap();
     phong
         .attach_phong(
             PhongMesh::new(p.clone(), n.clone(), idx.clone(), 1.0).unwrap(),
-            UserGeometryOptions::default(),
+            GeometryOptions::default(),
         )
         .unwrap();
-    phong.commit().unwrap();
+    let phong = phong.commit().unwrap();
 
     let mut g = c.benchmark_group("primary_rays_sphere_12x6");
     g.throughput(Throughput::Elements(rays.len() as u64));
@@ -58,4 +55,13 @@ fn bench(c: &mut Criterion) {
 }
 
 criterion_group!(benches, bench);
-criterion_main!(benches);
+
+/// `criterion_main!`'s body, on one thread in the float mode Embree recommends (FTZ/DAZ), as
+/// the renderer's threads run.
+fn main() {
+    let pool = phongrt::embree::thread_pool_builder().num_threads(1).build().expect("a thread pool");
+    pool.install(|| {
+        benches();
+        Criterion::default().configure_from_args().final_summary();
+    });
+}

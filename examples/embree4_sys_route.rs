@@ -13,7 +13,7 @@
 //! Run: `cargo run --release --example embree4_sys_route`.
 use std::ptr;
 
-use phongrt::embree::{attach_phong_raw, PhongMesh, UserGeometryOptions};
+use phongrt::embree::{attach_phong_raw, GeometryOptions, PhongMesh};
 use phongrt::glam::Vec3;
 use phongrt::sys;
 
@@ -65,7 +65,7 @@ pub fn run() -> Result<Vec<String>, Box<dyn std::error::Error>> {
             return Err("rtcNewDevice failed".into());
         }
         let scene = embree4_sys::rtcNewScene(device);
-        let phong = attach_phong_raw(scene.cast(), octahedron, UserGeometryOptions::default())?;
+        let phong = attach_phong_raw(scene.cast(), octahedron, GeometryOptions::default())?;
         embree4_sys::rtcCommitScene(scene);
         if sys::rtcGetDeviceError(device.cast()) != sys::RTCError::RTC_ERROR_NONE {
             return Err("Embree reported an error".into());

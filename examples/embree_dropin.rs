@@ -11,7 +11,7 @@
 //! Run: `cargo run --release --example embree_dropin`.
 use std::ptr;
 
-use phongrt::embree::{attach_phong_raw, PhongMesh, UserGeometryOptions};
+use phongrt::embree::{attach_phong_raw, GeometryOptions, PhongMesh};
 use phongrt::glam::Vec3;
 use phongrt::sys;
 
@@ -91,7 +91,7 @@ fn main() -> Result<(), Box<dyn std::error::Error>> {
         let scene = sys::rtcNewScene(device);
         let floor = [[-10.0, -2.0, -10.0], [10.0, -2.0, -10.0], [10.0, -2.0, 10.0], [-10.0, -2.0, 10.0]];
         let floor_id = add_triangles(device, scene, &floor, &[[0, 2, 1], [0, 3, 2]]);
-        let phong = attach_phong_raw(scene, octahedron, UserGeometryOptions::default())?;
+        let phong = attach_phong_raw(scene, octahedron, GeometryOptions::default())?;
         sys::rtcCommitScene(scene);
         if sys::rtcGetDeviceError(device) != sys::RTCError::RTC_ERROR_NONE {
             return Err("Embree reported an error".into());

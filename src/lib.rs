@@ -29,6 +29,40 @@ pub mod phong;
 pub mod rng;
 pub mod scene;
 pub mod sys;
+/// One error for the whole library, for callers that `?` across its parts: device, scene and
+/// geometry errors ([`embree::EmbreeError`]), refused meshes ([`phong::mesh::PhongMeshError`])
+/// and scenes that cannot load ([`scene::SceneError`]). Each part's own error converts into it
+/// with `?`, and displays as that error does.
+///
+/// ```
+/// use phongrt::embree::{CommittedScene, Device, PhongMesh, Scene};
+/// fn sphere() -> Result<CommittedScene, phongrt::Error> {
+///     let device = Device::new()?; // EmbreeError
+///     let m = phongrt::scene::uv_sphere(12, 6, 1.0);
+///     let mesh = PhongMesh::builder(&m.positions, &m.normals, &m.indices).build()?; // PhongMeshError
+///     let mut scene = Scene::new(&device)?;
+///     scene.attach_phong(mesh, Default::default())?;
+///     Ok(scene.commit()?)
+/// }
+/// assert!(sphere().is_ok());
+/// let refused = PhongMesh::builder(&[], &[glam::Vec3::Z], &[]).build().unwrap_err();
+/// let e = phongrt::Error::from(refused);
+/// assert!(matches!(e, phongrt::Error::Mesh(_)));
+/// assert_eq!(e.to_string(), "1 normals for 0 positions (need one per vertex)");
+/// ```
+#[derive(Debug, thiserror::Error)]
+pub enum Error {
+    /// An Embree error, or a refusal of the Embree layer.
+    #[error(transparent)]
+    Embree(#[from] embree::EmbreeError),
+    /// A Phong mesh was refused.
+    #[error(transparent)]
+    Mesh(#[from] phong::mesh::PhongMeshError),
+    /// A scene file could not be loaded.
+    #[error(transparent)]
+    Scene(#[from] scene::SceneError),
+}
+
 /// The glam this crate's API uses (`Vec3`, `DVec3`): depend on it through here to get the same
 /// version.
 pub use glam;

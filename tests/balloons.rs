@@ -6,7 +6,7 @@ mod common;
 use std::path::Path;
 
 use glam::Vec3;
-use phongrt::embree::{Device, PhongMesh, Ray, Scene, UserGeometryOptions};
+use phongrt::embree::{Device, GeometryOptions, PhongMesh, Ray, Scene};
 use phongrt::phong::accuracy::SplitMix;
 use phongrt::scene::{load_obj, load_obj_text, EdgeKind, LoadOptions, Scene as Loaded};
 
@@ -99,9 +99,9 @@ fn the_straightened_coin_leaks_no_ray_from_inside() {
         let straight = m.straight_edges();
         let pm = PhongMesh::with_straight_edges(&m.positions, &m.normals, &m.indices, 0.75, Some(&straight))
             .unwrap();
-        scene.attach_phong(pm, UserGeometryOptions::default()).unwrap();
+        scene.attach_phong(pm, GeometryOptions::default()).unwrap();
     }
-    scene.commit().unwrap();
+    let scene = scene.commit().unwrap();
     let mut r = SplitMix(7);
     for o in [Vec3::new(0.0, 0.15, 0.0), Vec3::new(0.7, 0.25, -0.3), Vec3::new(-0.2, 0.02, 0.9)] {
         let escaped =

@@ -227,8 +227,9 @@ fn accuracy_report_prints_a_table() {
 }
 
 #[test]
+#[ignore = "needs ../shared/corpus"]
 fn every_corpus_model_renders_or_is_refused() {
-    let Some(corpus) = common::corpus() else { return };
+    let corpus = common::corpus_required();
     let dir = tempfile::tempdir().unwrap();
     for entry in std::fs::read_dir(&corpus).unwrap() {
         let d = entry.unwrap().path();

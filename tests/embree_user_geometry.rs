@@ -5,8 +5,8 @@ use glam::{Mat4, Vec3};
 use std::panic::{catch_unwind, AssertUnwindSafe};
 
 use phongrt::embree::{
-    Device, EmbreeError, GeometryOptions, IntersectArgs, OccludedArgs, PrimHit, QueryContext, Ray, Scene,
-    UserGeometryOptions, UserPrimitives, UserTriangles,
+    CommittedScene, Device, EmbreeError, GeometryOptions, IntersectArgs, OccludedArgs, PrimHit, QueryContext,
+    Ray, Scene, UserPrimitives, UserTriangles,
 };
 use phongrt::sys;
 
@@ -35,14 +35,14 @@ fn rays(n: usize) -> Vec<Ray> {
         .collect()
 }
 
-fn scenes(device: &Device) -> (Scene, Scene) {
+fn scenes(device: &Device) -> (CommittedScene, CommittedScene) {
     let (p, i) = octahedron();
     let mut native = Scene::new(device).unwrap();
     native.attach_triangles(&p, &i, GeometryOptions::default()).unwrap();
-    native.commit().unwrap();
+    let native = native.commit().unwrap();
     let mut user = Scene::new(device).unwrap();
-    user.attach_user(UserTriangles { positions: p, indices: i }, UserGeometryOptions::default()).unwrap();
-    user.commit().unwrap();
+    user.attach_user(UserTriangles { positions: p, indices: i }, GeometryOptions::default()).unwrap();
+    let user = user.commit().unwrap();
     (native, user)
 }
 
@@ -67,7 +67,7 @@ fn user_triangles_match_native_triangles() {
     assert!(hits > 10_000, "too few hits: {hits}");
 }
 
-fn packet_check<const N: usize>(native: &Scene, user: &Scene) {
+fn packet_check<const N: usize>(native: &CommittedScene, user: &CommittedScene) {
     for chunk in rays(64 * N).chunks(N) {
         // Leave the last lane invalid to check the valid mask is honoured.
         let mut valid = [-1i32; N];
@@ -93,7 +93,7 @@ fn packet_check<const N: usize>(native: &Scene, user: &Scene) {
                 let mut rh = sys::RTCRayHit4::default();
                 fill!(rh);
                 let v: &[i32; 4] = valid[..].try_into().unwrap();
-                user.intersect4(v, &mut rh, None).unwrap();
+                user.intersect4(v, &mut rh, None);
                 for (k, r) in chunk.iter().enumerate() {
                     let single = native.intersect1(*r);
                     if k == N - 1 {
@@ -109,7 +109,7 @@ fn packet_check<const N: usize>(native: &Scene, user: &Scene) {
                 for k in 0..N {
                     ray.tfar[k] = f32::INFINITY;
                 }
-                user.occluded4(v, &mut ray, None).unwrap();
+                user.occluded4(v, &mut ray, None);
                 for (k, r) in chunk.iter().enumerate().take(N - 1) {
                     assert_eq!(native.occluded1(*r), ray.tfar[k] == f32::NEG_INFINITY);
                 }
@@ -118,7 +118,7 @@ fn packet_check<const N: usize>(native: &Scene, user: &Scene) {
                 let mut rh = sys::RTCRayHit8::default();
                 fill!(rh);
                 let v: &[i32; 8] = valid[..].try_into().unwrap();
-                user.intersect8(v, &mut rh, None).unwrap();
+                user.intersect8(v, &mut rh, None);
                 for (k, r) in chunk.iter().enumerate().take(N - 1) {
                     let single = native.intersect1(*r);
                     assert_eq!(
@@ -130,7 +130,7 @@ fn packet_check<const N: usize>(native: &Scene, user: &Scene) {
                 for k in 0..N {
                     ray.tfar[k] = f32::INFINITY;
                 }
-                user.occluded8(v, &mut ray, None).unwrap();
+                user.occluded8(v, &mut ray, None);
                 for (k, r) in chunk.iter().enumerate().take(N - 1) {
                     assert_eq!(native.occluded1(*r), ray.tfar[k] == f32::NEG_INFINITY);
                 }
@@ -139,7 +139,7 @@ fn packet_check<const N: usize>(native: &Scene, user: &Scene) {
                 let mut rh = sys::RTCRayHit16::default();
                 fill!(rh);
                 let v: &[i32; 16] = valid[..].try_into().unwrap();
-                user.intersect16(v, &mut rh, None).unwrap();
+                user.intersect16(v, &mut rh, None);
                 for (k, r) in chunk.iter().enumerate().take(N - 1) {
                     let single = native.intersect1(*r);
                     assert_eq!(
@@ -154,7 +154,7 @@ fn packet_check<const N: usize>(native: &Scene, user: &Scene) {
                 for k in 0..N {
                     ray.tfar[k] = f32::INFINITY;
                 }
-                user.occluded16(v, &mut ray, None).unwrap();
+                user.occluded16(v, &mut ray, None);
                 for (k, r) in chunk.iter().enumerate().take(N - 1) {
                     assert_eq!(native.occluded1(*r), ray.tfar[k] == f32::NEG_INFINITY);
                 }
@@ -214,14 +214,14 @@ fn filters_see_and_reject_candidates_as_on_triangles() {
             scene
                 .attach_user(
                     UserTriangles { positions: p.clone(), indices: i.clone() },
-                    UserGeometryOptions::default(),
+                    GeometryOptions::default(),
                 )
                 .unwrap()
         } else {
             scene.attach_triangles(&p, &i, GeometryOptions::default()).unwrap()
         };
         filter_out_even(&scene, id);
-        scene.commit().unwrap();
+        let scene = scene.commit().unwrap();
         let r: Vec<_> = rays(5000)
             .into_iter()
             .map(|r| {
@@ -243,14 +243,12 @@ fn masks_and_instances_work_for_user_geometry() {
     let device = Device::new().unwrap();
     let (p, i) = octahedron();
     let mut child = Scene::new(&device).unwrap();
-    child
-        .attach_user(UserTriangles { positions: p, indices: i }, UserGeometryOptions { mask: 0b10 })
-        .unwrap();
-    child.commit().unwrap();
+    child.attach_user(UserTriangles { positions: p, indices: i }, GeometryOptions { mask: 0b10 }).unwrap();
+    let child = child.commit().unwrap();
     let mut top = Scene::new(&device).unwrap();
     let inst =
         top.attach_instance(&child, Mat4::from_translation(Vec3::new(5.0, 0.0, 0.0)), u32::MAX).unwrap();
-    top.commit().unwrap();
+    let top = top.commit().unwrap();
     let mut r = Ray::new(Vec3::new(5.2, 0.1, 5.0), -Vec3::Z);
     let h = top.intersect1(r).expect("hit through instance");
     assert_eq!(h.inst_id[0], inst);
@@ -262,7 +260,7 @@ fn masks_and_instances_work_for_user_geometry() {
 
 /// Whether each ray hits (primID) and is occluded, with `reject_even` passed in the query
 /// arguments (with or without the flag that invokes it).
-fn with_argument_filter(scene: &Scene, invoke: bool) -> Vec<(Option<u32>, bool)> {
+fn with_argument_filter(scene: &CommittedScene, invoke: bool) -> Vec<(Option<u32>, bool)> {
     let flags = if invoke {
         sys::RTCRayQueryFlags::RTC_RAY_QUERY_FLAG_INVOKE_ARGUMENT_FILTER
     } else {
@@ -277,11 +275,11 @@ fn with_argument_filter(scene: &Scene, invoke: bool) -> Vec<(Option<u32>, bool)>
             let mut args =
                 unsafe { IntersectArgs::new().flags(flags).context(&mut context).filter(reject_even) };
             let mut rh = phongrt::embree::scene::new_rayhit(r);
-            scene.intersect1_raw(&mut rh, Some(&mut args)).unwrap();
+            scene.intersect1_raw(&mut rh, Some(&mut args));
             // SAFETY (test): as above.
             let mut oargs = unsafe { OccludedArgs::new().flags(flags).filter(reject_even) };
             let mut ray = phongrt::embree::scene::new_rayhit(r).ray;
-            scene.occluded1_raw(&mut ray, Some(&mut oargs)).unwrap();
+            scene.occluded1_raw(&mut ray, Some(&mut oargs));
             ((rh.hit.geomID != u32::MAX).then_some(rh.hit.primID), ray.tfar == f32::NEG_INFINITY)
         })
         .collect()
@@ -312,30 +310,35 @@ fn a_filter_in_the_query_arguments_reaches_embree() {
     let flags = sys::RTCRayQueryFlags::RTC_RAY_QUERY_FLAG_INVOKE_ARGUMENT_FILTER;
     for (r, expected) in rays(5000).into_iter().zip(&plain) {
         let mut rh = phongrt::embree::scene::new_rayhit(r);
-        native.intersect1_raw(&mut rh, Some(&mut IntersectArgs::new().flags(flags))).unwrap();
+        native.intersect1_raw(&mut rh, Some(&mut IntersectArgs::new().flags(flags)));
         let mut ray = phongrt::embree::scene::new_rayhit(r).ray;
-        native.occluded1_raw(&mut ray, Some(&mut OccludedArgs::new().flags(flags))).unwrap();
+        native.occluded1_raw(&mut ray, Some(&mut OccludedArgs::new().flags(flags)));
         let got = ((rh.hit.geomID != u32::MAX).then_some(rh.hit.primID), ray.tfar == f32::NEG_INFINITY);
         assert_eq!(&got, expected);
     }
 }
 
 #[test]
-fn queries_on_an_uncommitted_scene_are_refused_and_leave_the_rays_alone() {
+fn raw_packet_queries_trace_only_the_valid_lanes() {
+    // (An uncommitted scene has no query methods at all: `Scene` only builds, see its
+    // compile_fail example.)
     let device = Device::new().unwrap();
     let (p, i) = octahedron();
     let mut scene = Scene::new(&device).unwrap();
-    scene.attach_user(UserTriangles { positions: p, indices: i }, UserGeometryOptions::default()).unwrap();
+    scene.attach_user(UserTriangles { positions: p, indices: i }, GeometryOptions::default()).unwrap();
+    let scene = scene.commit().unwrap();
     let r = Ray::new(Vec3::new(0.1, 0.1, 3.0), -Vec3::Z);
     let mut rh = phongrt::embree::scene::new_rayhit(r);
-    assert_eq!(scene.intersect1_raw(&mut rh, None), Err(EmbreeError::NotCommitted));
+    scene.intersect1_raw(&mut rh, None);
+    assert_eq!(rh.hit.geomID, 0);
     let mut rh4 = sys::RTCRayHit4::default();
-    rh4.ray.tfar = [7.0; 4];
-    assert_eq!(scene.intersect4(&[-1; 4], &mut rh4, None), Err(EmbreeError::NotCommitted));
-    assert_eq!(rh4.ray.tfar, [7.0; 4]);
-    assert!(scene.intersect1(r).is_none() && !scene.occluded1(r));
-    scene.commit().unwrap();
-    assert!(scene.intersect1(r).is_some() && scene.occluded1(r));
+    for k in 0..4 {
+        (rh4.ray.org_x[k], rh4.ray.org_y[k], rh4.ray.org_z[k]) = (0.1, 0.1, 3.0);
+        (rh4.ray.dir_z[k], rh4.ray.tfar[k], rh4.ray.mask[k]) = (-1.0, 7.0, u32::MAX);
+    }
+    scene.intersect4(&[-1, 0, -1, 0], &mut rh4, None);
+    assert!(rh4.ray.tfar[0] < 7.0 && rh4.ray.tfar[2] < 7.0, "{:?}", rh4.ray.tfar);
+    assert_eq!((rh4.ray.tfar[1], rh4.ray.tfar[3]), (7.0, 7.0), "invalid lanes are left alone");
 }
 
 /// One triangle (the unit triangle in z = 0) whose callbacks panic on request.
@@ -372,15 +375,14 @@ impl UserPrimitives for Panicky {
 
 fn panicky_scene(device: &Device, in_bounds: bool, in_intersect: bool) -> Scene {
     let mut scene = Scene::new(device).unwrap();
-    scene.attach_user(Panicky { in_bounds, in_intersect }, UserGeometryOptions::default()).unwrap();
+    scene.attach_user(Panicky { in_bounds, in_intersect }, GeometryOptions::default()).unwrap();
     scene
 }
 
 #[test]
 fn a_panic_in_intersect_is_resumed_in_the_caller() {
     let device = Device::new().unwrap();
-    let mut scene = panicky_scene(&device, false, true);
-    scene.commit().unwrap();
+    let scene = panicky_scene(&device, false, true).commit().unwrap();
     let r = Ray::new(Vec3::new(0.2, 0.3, 1.0), -Vec3::Z);
     let e =
         catch_unwind(AssertUnwindSafe(|| scene.intersect1(r))).expect_err("intersect1 swallowed the panic");
@@ -396,26 +398,23 @@ fn a_panic_in_intersect_is_resumed_in_the_caller() {
         .expect_err("intersect8 swallowed the panic");
     assert_eq!(common::panic_message(e), "intersect exploded");
     // Nothing is left pending on the thread: the next query on a sound scene hits.
-    let mut good = panicky_scene(&device, false, false);
-    good.commit().unwrap();
+    let good = panicky_scene(&device, false, false).commit().unwrap();
     assert!(good.intersect1(r).is_some() && good.occluded1(r));
 }
 
 #[test]
 fn a_panic_in_intersect_under_the_callers_own_embree_call_is_reported_by_commit() {
     let device = Device::new().unwrap();
-    let mut scene = panicky_scene(&device, false, true);
-    scene.commit().unwrap();
+    let scene = panicky_scene(&device, false, true).commit().unwrap();
     let mut rh = phongrt::embree::scene::new_rayhit(Ray::new(Vec3::new(0.2, 0.3, 1.0), -Vec3::Z));
     // SAFETY (test): the scene is live and committed; `rh` is a valid RTCRayHit; NULL arguments
     // select Embree's defaults.
     unsafe { sys::rtcIntersect1(scene.raw(), &mut rh, std::ptr::null_mut()) };
     // No Rust caller was waiting: the ray missed, and the panic is recorded for the geometry.
     assert_eq!(rh.hit.geomID, u32::MAX);
-    let mut good = panicky_scene(&device, false, false);
-    good.commit().unwrap();
+    let good = panicky_scene(&device, false, false).commit().unwrap();
     assert!(good.intersect1(Ray::new(Vec3::new(0.2, 0.3, 1.0), -Vec3::Z)).is_some());
-    let err = scene.commit().unwrap_err();
+    let err = scene.edit().expect("nothing instances it").commit().unwrap_err();
     assert!(
         matches!(&err, EmbreeError::CallbackPanicked { geom_id: 0, callback: "intersect", message }
         if message == "intersect exploded"),
@@ -426,20 +425,18 @@ fn a_panic_in_intersect_under_the_callers_own_embree_call_is_reported_by_commit(
 #[test]
 fn a_panic_in_bounds_makes_commit_fail() {
     let device = Device::new().unwrap();
-    let mut scene = panicky_scene(&device, true, false);
+    let scene = panicky_scene(&device, true, false);
     let err = scene.commit().unwrap_err();
     assert!(
         matches!(&err, EmbreeError::CallbackPanicked { geom_id: 0, callback: "bounds", message }
         if message == "bounds exploded"),
         "{err}"
     );
-    assert!(!scene.is_committed());
-    assert!(scene.intersect1(Ray::new(Vec3::new(0.2, 0.3, 1.0), -Vec3::Z)).is_none());
 }
 
 /// A Phong sphere with `k` patches per Embree primitive, with `reject_even` as its geometry
 /// filter where `filtered`.
-fn phong_sphere(device: &Device, k: usize, filtered: bool) -> Scene {
+fn phong_sphere(device: &Device, k: usize, filtered: bool) -> CommittedScene {
     let m = phongrt::scene::uv_sphere(12, 6, 1.0);
     let mesh = phongrt::embree::PhongMesh::builder(&m.positions, &m.normals, &m.indices)
         .straight_edges(&m.straight_edges())
@@ -447,12 +444,11 @@ fn phong_sphere(device: &Device, k: usize, filtered: bool) -> Scene {
         .build()
         .unwrap();
     let mut scene = Scene::new(device).unwrap();
-    let id = scene.attach_phong(mesh, UserGeometryOptions::default()).unwrap();
+    let id = scene.attach_phong(mesh, GeometryOptions::default()).unwrap();
     if filtered {
         filter_out_even(&scene, id);
     }
-    scene.commit().unwrap();
-    scene
+    scene.commit().unwrap()
 }
 
 #[test]
@@ -524,5 +520,41 @@ fn a_cluster_size_outside_1_to_8_is_refused() {
     for k in [0, 9] {
         let e = phongrt::embree::PhongMesh::builder(&p, &n, &i).cluster_size(k).build().unwrap_err();
         assert_eq!(e.to_string(), format!("cluster size {k} is not in 1..=8"));
+    }
+}
+
+/// A unit triangle in z = 0 (as user geometry) whose test answers a fixed `t`, wherever the
+/// ray really meets it: a broken implementation.
+struct FixedT(f32);
+
+impl UserPrimitives for FixedT {
+    fn count(&self) -> u32 {
+        1
+    }
+
+    fn bounds(&self, _prim: u32) -> Option<(Vec3, Vec3)> {
+        Some((Vec3::ZERO, Vec3::new(1.0, 1.0, 0.0)))
+    }
+
+    fn intersect(&self, prim: u32, _org: Vec3, _dir: Vec3, _tnear: f32, _tfar: f32) -> Option<PrimHit> {
+        Some(PrimHit { t: self.0, u: 0.25, v: 0.25, ng: Vec3::Z, prim })
+    }
+}
+
+#[test]
+fn a_user_hit_outside_the_ray_interval_is_refused_and_counted() {
+    let device = Device::new().unwrap();
+    let ray = Ray::new(Vec3::new(0.25, 0.25, 1.0), -Vec3::Z).with_range(0.5, 2.0);
+    for (t, hit) in [(1.0, true), (0.25, false), (0.5, false), (2.0, false), (-1.0, false), (f32::NAN, false)]
+    {
+        let mut scene = Scene::new(&device).unwrap();
+        scene.attach_user(FixedT(t), GeometryOptions::default()).unwrap();
+        let scene = scene.commit().unwrap();
+        let before = phongrt::embree::user_hits_out_of_range();
+        assert_eq!(scene.intersect1(ray).map(|h| h.t), hit.then_some(t), "t = {t}");
+        assert_eq!(scene.occluded1(ray), hit, "t = {t}");
+        // One refusal per query that saw the bad t (no other test here makes bad hits).
+        let refused = phongrt::embree::user_hits_out_of_range() - before;
+        assert_eq!(refused, if hit { 0 } else { 2 }, "t = {t}");
     }
 }

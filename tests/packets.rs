@@ -6,7 +6,7 @@ use std::panic::{catch_unwind, AssertUnwindSafe};
 
 use glam::Vec3;
 use phongrt::embree::{
-    Device, GeometryOptions, PhongMesh, PrimHit, Ray, Scene, UserGeometryOptions, UserPrimitives, PACKET8,
+    CommittedScene, Device, GeometryOptions, PhongMesh, PrimHit, Ray, Scene, UserPrimitives, PACKET8,
 };
 use phongrt::phong::accuracy::SplitMix;
 use phongrt::scene::uv_sphere;
@@ -41,7 +41,7 @@ fn packets(w: u32, h: u32, random: usize) -> Vec<[Ray; PACKET8]> {
 
 /// Check every lane of every packet, under every mask, coherent and not, against the single
 /// ray queries; returns how many active lanes hit.
-fn check_lanes_match_single_rays(scene: &Scene) -> usize {
+fn check_lanes_match_single_rays(scene: &CommittedScene) -> usize {
     let mut hits = 0;
     for rays in packets(64, 48, 400) {
         let single: Vec<_> = rays.iter().map(|r| scene.intersect1(*r)).collect();
@@ -76,7 +76,7 @@ fn packet_lanes_equal_single_rays_on_flat_triangles() {
     let m = uv_sphere(24, 12, 1.0);
     let mut scene = Scene::new(&device).unwrap();
     scene.attach_triangles(&m.positions, &m.indices, GeometryOptions::default()).unwrap();
-    scene.commit().unwrap();
+    let scene = scene.commit().unwrap();
     assert!(check_lanes_match_single_rays(&scene) > 10_000);
 }
 
@@ -86,24 +86,28 @@ fn packet_lanes_equal_single_rays_on_a_phong_mesh() {
     let m = uv_sphere(12, 6, 1.0);
     let pm = PhongMesh::new(m.positions.clone(), m.normals.clone(), m.indices.clone(), 0.75).unwrap();
     let mut scene = Scene::new(&device).unwrap();
-    scene.attach_phong(pm, UserGeometryOptions::default()).unwrap();
+    scene.attach_phong(pm, GeometryOptions::default()).unwrap();
     // A flat floor beside it, so packets mix user geometry and Embree's triangles.
     let floor = [Vec3::new(-3.0, -1.0, -3.0), Vec3::new(3.0, -1.0, -3.0), Vec3::new(0.0, -1.0, 3.0)];
     scene.attach_triangles(&floor, &[[0, 2, 1]], GeometryOptions::default()).unwrap();
-    scene.commit().unwrap();
+    let scene = scene.commit().unwrap();
     assert!(check_lanes_match_single_rays(&scene) > 10_000);
 }
 
 #[test]
-fn packet_queries_on_an_uncommitted_scene_answer_nothing() {
+fn packet_queries_answer_only_the_active_lanes() {
+    // (An uncommitted scene has no queries at all: `Scene` only builds.)
     let device = Device::new().unwrap();
     let m = uv_sphere(12, 6, 1.0);
     let mut scene = Scene::new(&device).unwrap();
     scene.attach_triangles(&m.positions, &m.indices, GeometryOptions::default()).unwrap();
+    let scene = scene.commit().unwrap();
     let rays = [Ray::new(Vec3::new(0.0, 0.0, 3.0), -Vec3::Z); PACKET8];
-    assert_eq!(scene.intersect8_rays(&rays, 0xFF, true), [None; PACKET8]);
-    assert_eq!(scene.occluded8_rays(&rays, 0xFF, true), 0);
-    scene.commit().unwrap();
+    assert_eq!(scene.intersect8_rays(&rays, 0, true), [None; PACKET8]);
+    assert_eq!(scene.occluded8_rays(&rays, 0, true), 0);
+    let some: Vec<bool> = scene.intersect8_rays(&rays, 0x0F, true).iter().map(Option::is_some).collect();
+    assert_eq!(some, [true, true, true, true, false, false, false, false]);
+    assert_eq!(scene.occluded8_rays(&rays, 0x0F, true), 0x0F);
     assert!(scene.intersect8_rays(&rays, 0xFF, true).iter().all(Option::is_some));
     assert_eq!(scene.occluded8_rays(&rays, 0xFF, true), 0xFF);
 }
@@ -127,8 +131,8 @@ impl UserPrimitives for Exploding {
 fn a_panic_in_a_callback_during_a_packet_query_is_resumed_in_the_caller() {
     let device = Device::new().unwrap();
     let mut scene = Scene::new(&device).unwrap();
-    scene.attach_user(Exploding, UserGeometryOptions::default()).unwrap();
-    scene.commit().unwrap();
+    scene.attach_user(Exploding, GeometryOptions::default()).unwrap();
+    let scene = scene.commit().unwrap();
     let rays = [Ray::new(Vec3::new(0.2, 0.3, 1.0), -Vec3::Z); PACKET8];
     for coherent in [true, false] {
         let e = catch_unwind(AssertUnwindSafe(|| scene.intersect8_rays(&rays, 0x24, coherent)))
@@ -142,7 +146,7 @@ fn a_panic_in_a_callback_during_a_packet_query_is_resumed_in_the_caller() {
     let mut good = Scene::new(&device).unwrap();
     let tri = [Vec3::ZERO, Vec3::X, Vec3::Y];
     good.attach_triangles(&tri, &[[0, 1, 2]], GeometryOptions::default()).unwrap();
-    good.commit().unwrap();
+    let good = good.commit().unwrap();
     assert_eq!(good.occluded8_rays(&rays, 0xFF, true), 0xFF);
-    scene.commit().unwrap();
+    scene.edit().expect("nothing instances it").commit().unwrap();
 }

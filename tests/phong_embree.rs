@@ -1,11 +1,11 @@
 //! Phong meshes through Embree: watertightness, parity with triangles at alpha = 0,
 //! agreement with the pure-Rust intersector, shading helpers.
 use glam::Vec3;
-use phongrt::embree::{Device, GeometryOptions, PhongMesh, Ray, Scene, UserGeometryOptions};
+use phongrt::embree::{CommittedScene, Device, GeometryOptions, PhongMesh, Ray, Scene};
 use phongrt::phong::accuracy::SplitMix;
 use phongrt::scene::{uv_sphere, Mesh};
 
-fn phong_scene(device: &Device, mesh: &Mesh, alpha: f32, straight_creases: bool) -> Scene {
+fn phong_scene(device: &Device, mesh: &Mesh, alpha: f32, straight_creases: bool) -> CommittedScene {
     let straight = mesh.straight_edges();
     let pm = PhongMesh::with_straight_edges(
         &mesh.positions,
@@ -16,9 +16,8 @@ fn phong_scene(device: &Device, mesh: &Mesh, alpha: f32, straight_creases: bool)
     )
     .unwrap();
     let mut s = Scene::new(device).unwrap();
-    s.attach_phong(pm, UserGeometryOptions::default()).unwrap();
-    s.commit().unwrap();
-    s
+    s.attach_phong(pm, GeometryOptions::default()).unwrap();
+    s.commit().unwrap()
 }
 
 fn random_dirs(n: usize, seed: u64) -> Vec<Vec3> {
@@ -27,7 +26,7 @@ fn random_dirs(n: usize, seed: u64) -> Vec<Vec3> {
 }
 
 /// Rays from points inside a closed mesh must all hit it.
-fn count_escapes(scene: &Scene, origins: &[Vec3], n: usize, seed: u64) -> usize {
+fn count_escapes(scene: &CommittedScene, origins: &[Vec3], n: usize, seed: u64) -> usize {
     let dirs = random_dirs(n, seed);
     dirs.iter()
         .enumerate()
@@ -54,7 +53,7 @@ fn alpha_zero_matches_embree_triangles() {
     let phong = phong_scene(&device, &mesh, 0.0, false);
     let mut tri = Scene::new(&device).unwrap();
     tri.attach_triangles(&mesh.positions, &mesh.indices, GeometryOptions::default()).unwrap();
-    tri.commit().unwrap();
+    let tri = tri.commit().unwrap();
     let mut rng = SplitMix(7);
     let (mut n, mut mismatch) = (0, 0);
     for _ in 0..200_000 {
@@ -93,7 +92,7 @@ fn alpha_zero_matches_embree_triangles_on_a_real_mesh_for_a_million_rays() {
     let phong = phong_scene(&device, &mesh, 0.0, false);
     let mut tri = Scene::new(&device).unwrap();
     tri.attach_triangles(&mesh.positions, &mesh.indices, GeometryOptions::default()).unwrap();
-    tri.commit().unwrap();
+    let tri = tri.commit().unwrap();
     let (lo, hi) = mesh
         .positions
         .iter()
@@ -199,7 +198,7 @@ fn phong_mesh_attaches_to_a_raw_scene_made_by_the_callers_own_embree_code() {
     unsafe {
         let raw_device = sys::rtcGetSceneDevice(helper.raw());
         let raw = sys::rtcNewScene(raw_device);
-        let handle = attach_phong_raw(raw, pm, UserGeometryOptions::default()).unwrap();
+        let handle = attach_phong_raw(raw, pm, GeometryOptions::default()).unwrap();
         sys::rtcCommitScene(raw);
         let mut rh = phongrt::embree::scene::new_rayhit(Ray::new(Vec3::new(0.0, 3.0, 0.0), -Vec3::Y));
         sys::rtcIntersect1(raw, &mut rh, std::ptr::null_mut());
@@ -220,8 +219,8 @@ fn attach_phong_shares_the_mesh_with_the_caller_without_a_copy() {
     let m = uv_sphere(12, 6, 1.0);
     let mesh = Arc::new(PhongMesh::new(m.positions, m.normals, m.indices, 1.0).unwrap());
     let mut s = Scene::new(&device).unwrap();
-    s.attach_phong(mesh.clone(), UserGeometryOptions::default()).unwrap();
-    s.commit().unwrap();
+    s.attach_phong(mesh.clone(), GeometryOptions::default()).unwrap();
+    let s = s.commit().unwrap();
     // The scene holds the caller's mesh itself: one more reference, no second copy.
     assert_eq!(Arc::strong_count(&mesh), 2);
     let h = s.intersect1(Ray::new(Vec3::new(0.0, 3.0, 0.0), -Vec3::Y)).unwrap();

@@ -7,7 +7,7 @@
 //! The Rust counterpart of tests/c/pending_error.c.
 use glam::Vec3;
 use phongrt::embree::scene::new_rayhit;
-use phongrt::embree::{attach_phong_raw, PhongMesh, Ray, UserGeometryOptions};
+use phongrt::embree::{attach_phong_raw, GeometryOptions, PhongMesh, Ray};
 use phongrt::sys;
 
 mod common;
@@ -42,7 +42,7 @@ fn attach_with_pending_error() {
         let scene = sys::rtcNewScene(device);
         // The caller's own mistake: a build quality scenes do not take (refit is for geometries).
         sys::rtcSetSceneBuildQuality(scene, sys::RTCBuildQuality::RTC_BUILD_QUALITY_REFIT);
-        let attached = attach_phong_raw(scene, octahedron(), UserGeometryOptions::default());
+        let attached = attach_phong_raw(scene, octahedron(), GeometryOptions::default());
         let pending = sys::rtcGetDeviceError(device);
         sys::rtcCommitScene(scene);
         let commit_error = sys::rtcGetDeviceError(device);

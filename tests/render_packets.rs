@@ -123,8 +123,9 @@ fn packet_renders_of_a_crop_with_alpha_are_the_window_of_the_whole_frame() {
 }
 
 #[test]
+#[ignore = "needs ../shared/corpus"]
 fn packets_give_the_single_ray_image_on_real_meshes_flat_and_phong() {
-    let Some(corpus) = common::corpus() else { return };
+    let corpus = common::corpus_required();
     let device = Device::new().unwrap();
     for name in ["african_head/african_head.obj", "bunny_lowres/bunny.obj"] {
         let path = corpus.join(name);

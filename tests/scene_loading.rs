@@ -242,13 +242,10 @@ fn computed_normals_of_a_sphere_approximate_the_analytic_ones() {
     }
 }
 
-fn corpus() -> Option<PathBuf> {
-    common::corpus()
-}
-
 #[test]
+#[ignore = "needs ../shared/corpus"]
 fn every_corpus_model_loads_or_is_refused_clearly() {
-    let Some(c) = corpus() else { return };
+    let c = common::corpus_required();
     let mut n = 0;
     for entry in std::fs::read_dir(&c).unwrap() {
         let dir = entry.unwrap().path();
@@ -294,8 +291,9 @@ fn every_corpus_model_loads_or_is_refused_clearly() {
 }
 
 #[test]
+#[ignore = "needs ../shared/corpus"]
 fn corpus_concave_polygon_keeps_its_area() {
-    let Some(c) = corpus() else { return };
+    let c = common::corpus_required();
     let s = load_obj(&c.join("concave_polygon/concave_polygon.obj"), &LoadOptions::default()).unwrap();
     // 66 indices over 64 vertices (some repeated): n-2 triangles, all facing one way.
     let m = &s.meshes[0];

@@ -4,7 +4,7 @@
 //! (not the OBJ loader): scenes/cylinder_capped.obj as a triangle soup with split normals (flat
 //! caps, radial sides), and a box whose faces have their own normals, tilted towards the corners.
 use glam::Vec3;
-use phongrt::embree::{Device, PhongMesh, PhongMeshError, Ray, Scene, UserGeometryOptions};
+use phongrt::embree::{CommittedScene, Device, GeometryOptions, PhongMesh, PhongMeshError, Ray, Scene};
 use phongrt::phong::accuracy::SplitMix;
 use std::process::Command;
 
@@ -77,15 +77,14 @@ fn split_normal_box() -> Arrays {
     (p, n, idx)
 }
 
-fn scene_of(device: &Device, mesh: PhongMesh) -> Scene {
+fn scene_of(device: &Device, mesh: PhongMesh) -> CommittedScene {
     let mut s = Scene::new(device).unwrap();
-    s.attach_phong(mesh, UserGeometryOptions::default()).unwrap();
-    s.commit().unwrap();
-    s
+    s.attach_phong(mesh, GeometryOptions::default()).unwrap();
+    s.commit().unwrap()
 }
 
 /// Rays escaping from four points inside, `per_origin` random directions each.
-fn escapes(scene: &Scene, per_origin: usize) -> usize {
+fn escapes(scene: &CommittedScene, per_origin: usize) -> usize {
     let origins =
         [Vec3::ZERO, Vec3::new(0.3, -0.4, 0.5), Vec3::new(-0.6, 0.2, -0.7), Vec3::new(0.5, 0.5, 0.9)];
     let mut r = SplitMix(7);
@@ -120,7 +119,7 @@ fn plain_phong_of_the_same_arrays_leaks() {
     // The evidence for the default: without welding and straight edges both meshes part.
     let device = Device::new().unwrap();
     for (name, (p, n, i)) in [("cylinder", cylinder_soup()), ("box", split_normal_box())] {
-        let mesh = PhongMesh::builder(&p, &n, &i).plain().build().unwrap();
+        let mesh = PhongMesh::builder(&p, &n, &i).alpha(1.0).plain().build().unwrap();
         assert_eq!(mesh.straight_edge_count(), 0);
         let e = escapes(&scene_of(&device, mesh), 25_000);
         println!("{name}, plain Phong tessellation: {e} of 100000 rays escape");
@@ -136,8 +135,8 @@ fn watertight_mesh_keeps_the_callers_prim_ids_and_corner_order() {
     let (p, n, idx) = cylinder_soup();
     let mesh = std::sync::Arc::new(PhongMesh::builder(&p, &n, &idx).alpha(0.0).build().unwrap());
     let mut s = Scene::new(&device).unwrap();
-    s.attach_phong(mesh.clone(), UserGeometryOptions::default()).unwrap();
-    s.commit().unwrap();
+    s.attach_phong(mesh.clone(), GeometryOptions::default()).unwrap();
+    let s = s.commit().unwrap();
     let mut r = SplitMix(3);
     for _ in 0..2000 {
         let ray = Ray::new(Vec3::new(0.1, 0.2, 0.3), r.unit().as_vec3());

@@ -7,7 +7,8 @@ use std::panic::{catch_unwind, AssertUnwindSafe};
 use glam::Vec3;
 
 use super::phong_geometry::attach_user_raw;
-use super::user_geometry::{UserData, UserGeometryOptions};
+use super::scene::GeometryOptions;
+use super::user_geometry::UserData;
 use crate::phong::mesh::PhongMesh;
 use crate::phong::ShadingNormal;
 use crate::sys;
@@ -174,7 +175,7 @@ unsafe fn attach_mesh(
         // leaked to the caller, who frees it with phongrt_mesh_release only after releasing the
         // scene (phongrt.h), so the geometry's user pointer stays valid while it can be traced;
         // on an error nothing is attached and the box is dropped here.
-        let id = unsafe { attach_user_raw(scene, &boxed.data, UserGeometryOptions::default()) }
+        let id = unsafe { attach_user_raw(scene, &boxed.data, GeometryOptions::default()) }
             .map_err(|e| format!("{func}: {e}"))?;
         if !mesh_out.is_null() {
             // SAFETY: mesh_out is writable per the contract.

@@ -2,7 +2,8 @@
 
 use std::ffi::{c_char, c_void, CStr, CString};
 use std::sync::atomic::{AtomicI64, Ordering};
-use std::sync::{Arc, Mutex};
+use std::sync::{Arc, Mutex, MutexGuard};
+use std::thread::ThreadId;
 
 use crate::sys;
 
@@ -95,12 +96,6 @@ pub enum EmbreeError {
     /// A subdivision tessellation rate that is not a finite number >= 1.
     #[error("tessellation rate {0} is not >= 1")]
     TessellationRate(f32),
-    /// Tracing or instancing a scene that is not committed.
-    #[error("the scene is not committed (commit it before tracing or instancing it)")]
-    NotCommitted,
-    /// Changing or committing a scene that another scene instances (and may be tracing).
-    #[error("a scene that is instanced elsewhere cannot be changed or recommitted")]
-    InstancedElsewhere,
     /// A user-geometry callback panicked where no Rust caller could resume the panic: the
     /// bounds callback on one of Embree's build threads (reported by the commit that ran it,
     /// which leaves the scene uncommitted), or a query callback under the caller's own
@@ -132,12 +127,17 @@ impl EmbreeError {
     }
 }
 
+/// An error code and Embree's message for it.
+type Pending = (sys::RTCError, String);
+
 /// What the error and memory-monitor callbacks write into; owned by the device handle, so
 /// it outlives every callback Embree can make on that device.
 #[derive(Default)]
 struct DeviceState {
-    /// The first error message since the last [`Device::check`].
-    last_error: Mutex<Option<(sys::RTCError, String)>>,
+    /// Per thread, the first error message since that thread's last [`Device::check`]: Embree
+    /// keeps its error codes per thread too ("Each thread has its own error code per device",
+    /// rtcGetDeviceError docs), and calls the error function on the thread whose call failed.
+    last_error: Mutex<Vec<(ThreadId, Pending)>>,
     /// Bytes Embree reports as allocated (memory monitor callback).
     bytes: AtomicI64,
     peak: AtomicI64,
@@ -146,10 +146,18 @@ struct DeviceState {
 struct DeviceHandle {
     raw: sys::RTCDevice,
     state: Box<DeviceState>,
+    /// Held for every call that accesses the device object (see the `Sync` impl).
+    calls: Mutex<()>,
 }
 
-// SAFETY: Embree devices are thread-safe objects ("all API calls of a device are thread safe
-// unless stated otherwise", Embree API docs, rtcNewDevice); the state is Sync itself.
+// SAFETY: Embree's docs (Introduction): "In general, API calls that access the same object are
+// not thread-safe, unless specified otherwise. However, attaching geometries to the same scene
+// and performing ray queries in a scene is thread-safe." So every call this crate makes on the
+// device object (rtcNewScene, rtcNewGeometry, rtcNewBuffer, rtcGetDeviceProperty,
+// rtcGetDeviceError) holds `calls` ([`Device::lock`]): two threads never access the device at
+// once. Creation and release (rtcSetDevice*Function, rtcReleaseDevice) happen while one handle
+// owns it. Scene-level calls access their scene, which `&mut Scene` makes exclusive, and ray
+// queries run on committed scenes, the case Embree allows. The state is Sync itself.
 unsafe impl Send for DeviceHandle {}
 // SAFETY: see Send.
 unsafe impl Sync for DeviceHandle {}
@@ -162,7 +170,9 @@ impl Drop for DeviceHandle {
     }
 }
 
-/// An Embree device. Cheap to clone (shared handle).
+/// An Embree device. Cheap to clone (shared handle), `Send` and `Sync`: every call that
+/// accesses the device object takes the device's lock, as Embree requires ("API calls that
+/// access the same object are not thread-safe, unless specified otherwise").
 #[derive(Clone)]
 pub struct Device {
     inner: Arc<DeviceHandle>,
@@ -181,10 +191,11 @@ unsafe extern "C" fn error_callback(user: *mut c_void, code: sys::RTCError, msg:
         // SAFETY: `user` is the `DeviceState` we registered; it lives in a Box owned by the
         // device handle, which outlives the device's callbacks (released in Drop after use).
         let state = unsafe { &*(user as *const DeviceState) };
-        if let Ok(mut slot) = state.last_error.lock() {
-            if slot.is_none() {
-                *slot = Some((code, message));
-            }
+        // Embree calls this on the thread whose call failed: keep that thread's first error.
+        let id = std::thread::current().id();
+        let mut slot = state.last_error.lock().unwrap_or_else(|e| e.into_inner());
+        if !slot.iter().any(|(t, _)| *t == id) {
+            slot.push((id, (code, message)));
         }
     });
 }
@@ -225,27 +236,71 @@ impl Device {
             sys::rtcSetDeviceErrorFunction(raw, Some(error_callback), user);
             sys::rtcSetDeviceMemoryMonitorFunction(raw, Some(memory_callback), user);
         }
-        Ok(Device { inner: Arc::new(DeviceHandle { raw, state }) })
+        Ok(Device { inner: Arc::new(DeviceHandle { raw, state, calls: Mutex::new(()) }) })
     }
 
     pub(crate) fn raw(&self) -> sys::RTCDevice {
         self.inner.raw
     }
 
-    /// Turn a pending Embree error (if any) into `Err`.
-    pub fn check(&self) -> Result<(), EmbreeError> {
-        // SAFETY: the device is live for as long as `self` is.
-        let code = unsafe { sys::rtcGetDeviceError(self.raw()) };
-        let stored = self.inner.state.last_error.lock().ok().and_then(|mut s| s.take());
-        if code == sys::RTCError::RTC_ERROR_NONE && stored.is_none() {
-            return Ok(());
+    /// The lock every call that accesses the device object holds (Embree: "API calls that
+    /// access the same object are not thread-safe, unless specified otherwise").
+    pub(crate) fn lock(&self) -> MutexGuard<'_, ()> {
+        self.inner.calls.lock().unwrap_or_else(|e| e.into_inner())
+    }
+
+    /// This thread's pending error (Embree's code and the message its error function gave),
+    /// clearing it; other threads' errors stay theirs.
+    fn take_error(&self) -> Option<Pending> {
+        let code = {
+            let _device = self.lock();
+            // SAFETY: the device is live for as long as `self` is; the lock serialises the
+            // access; the code read is this thread's (rtcGetDeviceError docs).
+            unsafe { sys::rtcGetDeviceError(self.raw()) }
+        };
+        let id = std::thread::current().id();
+        let mut slot = self.inner.state.last_error.lock().unwrap_or_else(|e| e.into_inner());
+        let stored = slot.iter().position(|(t, _)| *t == id).map(|k| slot.swap_remove(k).1);
+        match (code, stored) {
+            (sys::RTCError::RTC_ERROR_NONE, None) => None,
+            (code, None) => Some((code, String::new())),
+            (_, Some(stored)) => Some(stored),
         }
-        let (code, message) = stored.unwrap_or((code, String::new()));
-        Err(EmbreeError::from_code(code, message))
+    }
+
+    /// Turn an Embree error pending on this thread (if any) into `Err`. Errors of calls made
+    /// on other threads are theirs: they are not reported here. An error the caller's own raw
+    /// calls left pending when a phongrt call ran on this device is kept for this method (Embree's
+    /// own `rtcGetDeviceError` no longer returns it then).
+    pub fn check(&self) -> Result<(), EmbreeError> {
+        match self.take_error() {
+            None => Ok(()),
+            Some((code, message)) => Err(EmbreeError::from_code(code, message)),
+        }
+    }
+
+    /// Run `f`, Embree calls whose return values cannot say they failed (functions returning
+    /// `void`), and blame on it exactly the error they recorded on this thread: an error left
+    /// pending before by the caller's own raw calls is not reported, and stays pending for
+    /// the caller's own [`Device::check`].
+    pub(crate) fn call<R>(&self, f: impl FnOnce() -> R) -> Result<R, EmbreeError> {
+        let earlier = self.take_error();
+        let r = f();
+        let error = self.take_error();
+        if let Some(earlier) = earlier {
+            let id = std::thread::current().id();
+            self.inner.state.last_error.lock().unwrap_or_else(|e| e.into_inner()).push((id, earlier));
+        }
+        match error {
+            None => Ok(r),
+            Some((code, message)) => Err(EmbreeError::from_code(code, message)),
+        }
     }
 
     fn property(&self, p: sys::RTCDeviceProperty) -> isize {
-        // SAFETY: the device is live; reading a property has no other precondition.
+        let _device = self.lock();
+        // SAFETY: the device is live; the lock serialises the access; reading a property has
+        // no other precondition (rtcGetDeviceProperty docs).
         unsafe { sys::rtcGetDeviceProperty(self.raw(), p) }
     }
 
@@ -316,21 +371,54 @@ pub fn header_version() -> &'static str {
     std::str::from_utf8(&sys::RTC_VERSION_STRING[..sys::RTC_VERSION_STRING.len() - 1]).unwrap_or("?")
 }
 
-/// Set flush-to-zero and denormals-are-zero on the calling thread, as Embree recommends for
-/// every thread that traces rays (denormals slow traversal down severely).
-pub fn set_flush_denormals() {
+/// Set flush-to-zero (FTZ) and denormals-are-zero (DAZ) in the calling thread's MXCSR, as
+/// Embree's "CPU Performance Recommendations" ask: "It is strongly recommended to have the
+/// `Flush to Zero` and `Denormals are Zero` mode of the MXCSR control and status register
+/// enabled for each thread before calling the `rtcIntersect`-type and `rtcOccluded`-type
+/// functions" (denormals can slow traversal down severely). A no-op off x86_64.
+///
+/// Prefer [`thread_pool_builder`], which sets the mode on every thread of a rayon pool.
+///
+/// # Safety
+/// Rust's documentation of `_mm_setcsr` calls setting these flags immediate undefined
+/// behaviour: the compiler assumes IEEE subnormal arithmetic, so an operation it folds at
+/// compile time and the same operation at run time can disagree once the thread flushes
+/// subnormals to zero. The caller must make sure that nothing run on this thread afterwards
+/// depends for its soundness on subnormal results: no float result may decide an unchecked
+/// memory access or another `unsafe` precondition. What can change is a float value near zero,
+/// which is what the caller opts into.
+pub unsafe fn set_flush_denormals() {
     #[cfg(target_arch = "x86_64")]
     {
         #[allow(deprecated)]
         use std::arch::x86_64::{_mm_getcsr, _mm_setcsr};
         const FTZ: u32 = 1 << 15;
         const DAZ: u32 = 1 << 6;
-        // SAFETY: reading and writing MXCSR is always valid on x86_64 (SSE2 is baseline); setting
-        // FTZ/DAZ only changes denormal handling of this thread, which is what Embree asks for
-        // ("Embree FAQ: set the FTZ and DAZ flags ... on every thread").
+        // SAFETY: MXCSR exists on every x86_64 CPU (SSE2 is baseline) and only this thread's
+        // copy is written; the compiler's assumption of IEEE subnormals is this function's
+        // contract, passed to the caller.
         #[allow(deprecated)]
         unsafe {
             _mm_setcsr(_mm_getcsr() | FTZ | DAZ)
         };
     }
+}
+
+/// A rayon thread pool builder whose threads set flush-to-zero and denormals-are-zero (see
+/// [`set_flush_denormals`]) before they run anything: the one way phongrt's renderer, bench and
+/// command line run every thread that traces rays in the float mode Embree recommends.
+///
+/// Closures run on the pool see subnormal inputs and results of `f32`/`f64` SSE arithmetic
+/// as zero. The caller may set the number of threads, names and the rest on the builder; a
+/// `start_handler` set afterwards replaces the one that sets the mode.
+pub fn thread_pool_builder() -> rayon::ThreadPoolBuilder {
+    rayon::ThreadPoolBuilder::new().start_handler(|_| {
+        // SAFETY: `set_flush_denormals`' contract: the code phongrt runs on these threads (the
+        // ray queries, the user-geometry callbacks, the Phong and shading math) uses float
+        // results only as values, never to decide an unchecked memory access (slices are read
+        // with bounds checks or `get`, float-to-index conversions saturate), so flushed
+        // subnormals change values, not soundness. The flag is documented on this builder
+        // for the closures callers run on its pool.
+        unsafe { set_flush_denormals() }
+    })
 }

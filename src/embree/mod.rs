@@ -4,15 +4,19 @@ pub mod device;
 pub mod scene;
 
 pub use device::{
-    header_version, set_flush_denormals, Device, EmbreeError, ErrorCode, MAX_INSTANCE_LEVEL_COUNT,
+    header_version, set_flush_denormals, thread_pool_builder, Device, EmbreeError, ErrorCode,
+    MAX_INSTANCE_LEVEL_COUNT,
 };
 pub use scene::{
-    new_query_context, GeometryOptions, Hit, IntersectArgs, OccludedArgs, QueryContext, Ray, Scene, PACKET8,
+    new_rayhit, CommittedScene, GeometryOptions, Hit, IntersectArgs, OccludedArgs, QueryContext, Ray, Scene,
+    PACKET8,
 };
 mod panic;
 pub mod user_geometry;
+#[allow(deprecated)]
+pub use user_geometry::UserGeometryOptions;
 pub use user_geometry::{
-    OriginPrim, PacketRays, PrimHit, RayOrigin, UserGeometryOptions, UserPrimitives, UserTriangles,
+    user_hits_out_of_range, OriginPrim, PacketRays, PrimHit, RayOrigin, UserPrimitives, UserTriangles,
     MAX_PACKET,
 };
 #[cfg(feature = "capi")]

@@ -8,10 +8,9 @@ use std::sync::Arc;
 use glam::Vec3;
 
 use super::device::EmbreeError;
-use super::scene::Scene;
+use super::scene::{GeometryOptions, Scene};
 use super::user_geometry::{
-    new_user_geometry, OriginPrim, PacketRays, PrimHit, UserData, UserGeometryOptions, UserPrimitives,
-    MAX_PACKET,
+    new_user_geometry, OriginPrim, PacketRays, PrimHit, UserData, UserPrimitives, MAX_PACKET,
 };
 use crate::phong::intersect::{LaneRays, LANES};
 use crate::phong::mesh::PhongMesh;
@@ -98,7 +97,7 @@ impl Scene {
     pub fn attach_phong(
         &mut self,
         mesh: impl Into<Arc<PhongMesh>>,
-        options: UserGeometryOptions,
+        options: GeometryOptions,
     ) -> Result<u32, EmbreeError> {
         self.attach_user(mesh.into(), options)
     }
@@ -144,7 +143,7 @@ impl RawPhongGeometry {
 pub unsafe fn attach_phong_raw(
     scene: sys::RTCScene,
     mesh: impl Into<Arc<PhongMesh>>,
-    options: UserGeometryOptions,
+    options: GeometryOptions,
 ) -> Result<RawPhongGeometry, EmbreeError> {
     if scene.is_null() {
         return Err(EmbreeError::Null("scene"));
@@ -172,7 +171,7 @@ pub unsafe fn attach_phong_raw(
 pub(crate) unsafe fn attach_user_raw<T: UserPrimitives>(
     scene: sys::RTCScene,
     data: *const UserData<T>,
-    options: UserGeometryOptions,
+    options: GeometryOptions,
 ) -> Result<u32, EmbreeError> {
     // SAFETY: `scene` is live (this function's contract); rtcGetSceneDevice returns its device
     // with a new reference, released below (rtcGetSceneDevice docs); `data` outlives the

@@ -82,7 +82,8 @@ pub struct Hit {
     pub inst_id: [u32; MAX_INSTANCE_LEVEL_COUNT],
 }
 
-pub(crate) fn empty_rayhit(ray: Ray) -> sys::RTCRayHit {
+/// A raw `RTCRayHit` for `ray` with no hit yet (geomID invalid), for callers of the raw API.
+pub fn new_rayhit(ray: Ray) -> sys::RTCRayHit {
     sys::RTCRayHit {
         ray: ray.to_sys(),
         hit: sys::RTCHit {
@@ -93,11 +94,6 @@ pub(crate) fn empty_rayhit(ray: Ray) -> sys::RTCRayHit {
             ..Default::default()
         },
     }
-}
-
-/// A raw `RTCRayHit` for `ray` with no hit yet (geomID invalid), for callers of the raw API.
-pub fn new_rayhit(ray: Ray) -> sys::RTCRayHit {
-    empty_rayhit(ray)
 }
 
 pub(crate) fn hit_of(rh: &sys::RTCRayHit) -> Option<Hit> {
@@ -112,15 +108,6 @@ pub(crate) fn hit_of(rh: &sys::RTCRayHit) -> Option<Hit> {
     })
 }
 
-/// A raw ray query context with an empty instance stack (`rtcInitRayQueryContext` is an inline
-/// function of the header, so it is rewritten here).
-pub fn new_query_context() -> sys::RTCRayQueryContext {
-    sys::RTCRayQueryContext {
-        instID: [sys::RTC_INVALID_GEOMETRY_ID; MAX_INSTANCE_LEVEL_COUNT],
-        instPrimID: [sys::RTC_INVALID_GEOMETRY_ID; MAX_INSTANCE_LEVEL_COUNT],
-    }
-}
-
 /// A ray query context (`RTCRayQueryContext`) that can only hold what `rtcInitRayQueryContext`
 /// puts there, an empty instance stack, and what Embree itself pushes during a query. Filter
 /// functions see it as the `context` of their arguments.
@@ -129,9 +116,13 @@ pub fn new_query_context() -> sys::RTCRayQueryContext {
 pub struct QueryContext(sys::RTCRayQueryContext);
 
 impl QueryContext {
-    /// A context with an empty instance stack.
+    /// A context with an empty instance stack (`rtcInitRayQueryContext` is an inline function
+    /// of the header, so it is rewritten here).
     pub fn new() -> Self {
-        QueryContext(new_query_context())
+        QueryContext(sys::RTCRayQueryContext {
+            instID: [sys::RTC_INVALID_GEOMETRY_ID; MAX_INSTANCE_LEVEL_COUNT],
+            instPrimID: [sys::RTC_INVALID_GEOMETRY_ID; MAX_INSTANCE_LEVEL_COUNT],
+        })
     }
 
     /// The raw context (read only).
@@ -243,9 +234,10 @@ struct SceneHandle {
     panics: Vec<(u32, Arc<PanicRecord>)>,
 }
 
-// SAFETY: Embree scenes may be queried from any number of threads at once after commit
-// ("rtcIntersect*/rtcOccluded* are thread safe", Embree API docs); mutation goes through
-// `&mut Scene`, which Rust makes exclusive.
+// SAFETY: Embree's docs (Introduction): "performing ray queries in a scene is thread-safe".
+// Only a `CommittedScene` is shared (`Sync`), and it offers ray queries alone (its bounds and
+// flags are read once, at commit); changes go through a `Scene`, which is not `Sync` and is
+// changed through `&mut`, so exclusively.
 unsafe impl Send for SceneHandle {}
 // SAFETY: see Send.
 unsafe impl Sync for SceneHandle {}
@@ -258,14 +250,33 @@ impl Drop for SceneHandle {
     }
 }
 
-/// An Embree scene: attach geometry, commit, then trace rays from any thread.
+/// An Embree scene being built: attach geometry, then [`Scene::commit`] it into a
+/// [`CommittedScene`], which alone traces rays. A query cannot meet a scene in the wrong
+/// state: the builder has no query methods, the committed scene no change methods.
+///
+/// ```compile_fail
+/// # use phongrt::embree::{Device, Ray, Scene};
+/// # use glam::Vec3;
+/// let scene = Scene::new(&Device::new().unwrap()).unwrap();
+/// scene.intersect1(Ray::new(Vec3::ZERO, Vec3::Z)); // a builder cannot be traced: commit it
+/// ```
 pub struct Scene {
-    inner: Arc<SceneHandle>,
-    committed: bool,
+    inner: SceneHandle,
+    /// Not `Sync`: `&Scene` calls (raw flags) must not run on two threads at once.
+    _not_sync: PhantomData<std::cell::Cell<()>>,
 }
 
-/// Options for attaching geometry of any kind: [`Scene::attach_triangles`], and (as
-/// `UserGeometryOptions`, the same fields) [`Scene::attach_user`] and [`Scene::attach_phong`].
+/// A committed Embree scene: ray queries (single rays and 4/8/16 packets) from any number of
+/// threads at once, as Embree allows. To change it, take the builder back with
+/// [`CommittedScene::edit`].
+pub struct CommittedScene {
+    inner: Arc<SceneHandle>,
+    bounds: (Vec3, Vec3),
+    robust: bool,
+}
+
+/// Options for attaching geometry of any kind: [`Scene::attach_triangles`],
+/// [`Scene::attach_user`] and [`Scene::attach_phong`].
 #[derive(Clone, Copy, Debug)]
 pub struct GeometryOptions {
     /// Geometry mask: a ray sees this geometry only if `ray.mask & mask != 0`. The default is
@@ -333,14 +344,18 @@ fn new_buffer_from<T: Copy>(device: &Device, items: &[T]) -> Result<OwnedBuffer,
     // SAFETY: the device is live (held by `device`); rtcNewBuffer allocates `bytes + 16` bytes
     // that rtcGetBufferData exposes for writing (rtcNewBuffer docs); we copy exactly `bytes`
     // from a valid slice of plain `Copy` data (Vec3 and [u32; 3] are 12 bytes without padding).
+    // rtcNewBuffer returns null exactly when it fails: the device's error is read only then.
+    // The device's lock is held for the call that accesses it.
     unsafe {
-        let buf = sys::rtcNewBuffer(device.raw(), bytes + 16);
+        let buf = {
+            let _device = device.lock();
+            sys::rtcNewBuffer(device.raw(), bytes + 16)
+        };
         if buf.is_null() {
             device.check()?;
             return Err(EmbreeError::Null("buffer"));
         }
         let buf = OwnedBuffer(buf);
-        device.check()?;
         let ptr = sys::rtcGetBufferData(buf.raw()) as *mut u8;
         std::ptr::copy_nonoverlapping(items.as_ptr() as *const u8, ptr, bytes);
         Ok(buf)
@@ -353,40 +368,46 @@ fn new_geometry(
     kind: sys::RTCGeometryType,
     what: &'static str,
 ) -> Result<OwnedGeometry, EmbreeError> {
-    // SAFETY: the device is live (held by `device`); rtcNewGeometry returns a geometry with one
-    // reference, or null with the error recorded on the device.
-    let geom = unsafe { sys::rtcNewGeometry(device.raw(), kind) };
+    let geom = {
+        let _device = device.lock();
+        // SAFETY: the device is live (held by `device`) and locked for the call; rtcNewGeometry
+        // returns a geometry with one reference, or null with the error recorded on the device.
+        unsafe { sys::rtcNewGeometry(device.raw(), kind) }
+    };
     OwnedGeometry::new(device, geom, what)
 }
 
 impl Scene {
     /// An empty scene on `device`.
     pub fn new(device: &Device) -> Result<Self, EmbreeError> {
-        // SAFETY: the device is live (held by `device`, and by the scene handle from now on).
-        let raw = unsafe { sys::rtcNewScene(device.raw()) };
+        let raw = {
+            let _device = device.lock();
+            // SAFETY: the device is live (held by `device`, and by the scene handle from now
+            // on) and locked for the call.
+            unsafe { sys::rtcNewScene(device.raw()) }
+        };
         // rtcNewScene returns null exactly when it fails: the device's error is read only then
         // (an error left pending by the caller's raw calls is theirs); a scene is owned at once.
         if raw.is_null() {
             device.check()?;
             return Err(EmbreeError::Null("scene"));
         }
-        let handle = SceneHandle { raw, device: device.clone(), keep_alive: Vec::new(), panics: Vec::new() };
-        Ok(Scene { inner: Arc::new(handle), committed: false })
+        let inner = SceneHandle { raw, device: device.clone(), keep_alive: Vec::new(), panics: Vec::new() };
+        Ok(Scene { inner, _not_sync: PhantomData })
     }
 
     /// Embree's robust mode (`RTC_SCENE_FLAG_ROBUST`): acceleration structures that allow robust
     /// traversal and no optimisations that reduce arithmetic accuracy, against rays slipping
     /// between neighbouring primitives. Takes effect at the next commit.
     pub fn set_robust(&mut self, robust: bool) -> Result<(), EmbreeError> {
-        let raw = self.handle_mut()?.raw;
+        let raw = self.inner.raw;
         let bit = sys::RTCSceneFlags::RTC_SCENE_FLAG_ROBUST.0;
         // SAFETY: `raw` is a live scene (held by `self`); rtcGetSceneFlags/rtcSetSceneFlags only
-        // read and set its flags, recording any error on the device, which is checked below.
-        unsafe {
+        // read and set its flags, recording any error on the device, which `call` reads.
+        self.device().call(|| unsafe {
             let flags = sys::rtcGetSceneFlags(raw).0;
             sys::rtcSetSceneFlags(raw, sys::RTCSceneFlags(if robust { flags | bit } else { flags & !bit }));
-        }
-        self.device().check()
+        })
     }
 
     /// Whether robust mode is set (see [`Scene::set_robust`]).
@@ -407,31 +428,20 @@ impl Scene {
         self.inner.raw
     }
 
-    /// The handle, for a change that needs a new commit: refused (and the scene left as it
-    /// is, committed or not) while another scene instances this one, since Embree may be
-    /// tracing it through that scene.
-    fn handle_mut(&mut self) -> Result<&mut SceneHandle, EmbreeError> {
-        let handle = Arc::get_mut(&mut self.inner).ok_or(EmbreeError::InstancedElsewhere)?;
-        self.committed = false;
-        Ok(handle)
-    }
-
     /// Record the panic record of user geometry `geom_id`, for `commit` to report.
-    pub(crate) fn watch_panics(&mut self, geom_id: u32, record: Arc<PanicRecord>) -> Result<(), EmbreeError> {
-        self.handle_mut()?.panics.push((geom_id, record));
-        Ok(())
+    pub(crate) fn watch_panics(&mut self, geom_id: u32, record: Arc<PanicRecord>) {
+        self.inner.panics.push((geom_id, record));
     }
 
     /// Keep `data` alive as long as the scene (for geometry that points into it).
-    pub(crate) fn keep_alive(&mut self, data: Box<dyn Any + Send + Sync>) -> Result<(), EmbreeError> {
-        self.handle_mut()?.keep_alive.push(data);
-        Ok(())
+    pub(crate) fn keep_alive(&mut self, data: Box<dyn Any + Send + Sync>) {
+        self.inner.keep_alive.push(data);
     }
 
     /// Attach a committed geometry (our reference to it is released either way); returns its
     /// geomID. On `Err` the geometry is not attached.
     pub(crate) fn attach_raw(&mut self, geom: OwnedGeometry) -> Result<u32, EmbreeError> {
-        let raw = self.handle_mut()?.raw;
+        let raw = self.inner.raw;
         // SAFETY: `geom` is a live, committed geometry of this scene's device; attaching
         // retains it, and `geom` then drops our own reference (rtcAttachGeometry docs).
         let id = unsafe { sys::rtcAttachGeometry(raw, geom.raw()) };
@@ -464,7 +474,8 @@ impl Scene {
         // SAFETY: the geometry and both buffers are live; the buffers hold the stated item
         // counts (12-byte items) and are bound before the geometry is committed; the geometry
         // retains them, so our references drop at the end of this function (rtcSetGeometryBuffer docs).
-        unsafe {
+        // These calls return nothing: `call` reads the errors they record.
+        device.call(|| unsafe {
             sys::rtcSetGeometryBuffer(
                 geom.raw(),
                 sys::RTCBufferType::RTC_BUFFER_TYPE_VERTEX,
@@ -487,8 +498,7 @@ impl Scene {
             );
             sys::rtcSetGeometryMask(geom.raw(), options.mask);
             sys::rtcCommitGeometry(geom.raw());
-        }
-        device.check()?;
+        })?;
         self.attach_raw(geom)
     }
 
@@ -523,7 +533,7 @@ impl Scene {
         // SAFETY: as in `attach_triangles`; the face buffer holds one u32 (3) per face and the
         // index buffer one u32 per corner, as RTC_GEOMETRY_TYPE_SUBDIVISION requires
         // (rtcNewGeometry docs, "Subdivision geometry").
-        unsafe {
+        device.call(|| unsafe {
             sys::rtcSetGeometryBuffer(
                 geom.raw(),
                 sys::RTCBufferType::RTC_BUFFER_TYPE_VERTEX,
@@ -556,17 +566,19 @@ impl Scene {
             );
             sys::rtcSetGeometryTessellationRate(geom.raw(), tessellation_rate);
             sys::rtcCommitGeometry(geom.raw());
-        }
-        device.check()?;
+        })?;
         self.attach_raw(geom)
     }
 
-    /// Attach an instance of `child` (which must be committed) with `transform` (object to
-    /// world); returns its geomID (the instID hits inside it report).
-    pub fn attach_instance(&mut self, child: &Scene, transform: Mat4, mask: u32) -> Result<u32, EmbreeError> {
-        if !child.committed {
-            return Err(EmbreeError::NotCommitted);
-        }
+    /// Attach an instance of the committed scene `child` with `transform` (object to world);
+    /// returns its geomID (the instID hits inside it report). The instance shares `child`:
+    /// while it lives, [`CommittedScene::edit`] on `child` is refused.
+    pub fn attach_instance(
+        &mut self,
+        child: &CommittedScene,
+        transform: Mat4,
+        mask: u32,
+    ) -> Result<u32, EmbreeError> {
         let device = self.device().clone();
         let cols = transform.to_cols_array();
         let geom =
@@ -574,7 +586,7 @@ impl Scene {
         // SAFETY: `child.raw()` is a live committed scene; we keep a reference to its handle
         // below so it outlives this scene. The transform is 16 floats in column-major order,
         // matching RTC_FORMAT_FLOAT4X4_COLUMN_MAJOR, and Embree copies it (rtcSetGeometryTransform docs).
-        unsafe {
+        device.call(|| unsafe {
             sys::rtcSetGeometryInstancedScene(geom.raw(), child.raw());
             sys::rtcSetGeometryTransform(
                 geom.raw(),
@@ -584,24 +596,23 @@ impl Scene {
             );
             sys::rtcSetGeometryMask(geom.raw(), mask);
             sys::rtcCommitGeometry(geom.raw());
-        }
-        device.check()?;
-        self.keep_alive(Box::new(child.inner.clone()))?;
+        })?;
+        self.keep_alive(Box::new(child.inner.clone()));
         self.attach_raw(geom)
     }
 
-    /// Build the BVH. Queries need a committed scene.
+    /// Build the BVH: the committed scene traces rays.
     ///
-    /// Refused while another scene instances this one ([`EmbreeError::InstancedElsewhere`]);
-    /// a panic in a user geometry's bounds callback (run on Embree's build threads) comes back
-    /// as [`EmbreeError::CallbackPanicked`], and the scene stays uncommitted.
-    pub fn commit(&mut self) -> Result<(), EmbreeError> {
-        let raw = self.handle_mut()?.raw;
-        // SAFETY: the scene is live, and no other thread can be tracing it: we hold `&mut self`
-        // and the only reference to the handle (no scene instances it), and rtcCommitScene
-        // must not run concurrently with queries on the scene (rtcCommitScene docs).
-        unsafe { sys::rtcCommitScene(raw) };
-        self.device().check()?;
+    /// A panic in a user geometry's bounds callback (run on Embree's build threads) comes back
+    /// as [`EmbreeError::CallbackPanicked`], as does one recorded under the caller's own
+    /// Embree queries since the last commit; the scene is then dropped.
+    pub fn commit(self) -> Result<CommittedScene, EmbreeError> {
+        let raw = self.inner.raw;
+        // SAFETY: the scene is live, and no other thread can be tracing it: a `Scene` is owned
+        // here and no other scene instances it (instancing takes a `CommittedScene`), and
+        // rtcCommitScene must not run concurrently with queries on the scene (rtcCommitScene
+        // docs). It returns nothing: `call` reads the error it records.
+        self.device().call(|| unsafe { sys::rtcCommitScene(raw) })?;
         // Any panic recorded since the last commit: this commit's bounds callbacks, or ray
         // callbacks under the caller's own Embree calls (taking it clears it).
         for (geom_id, record) in &self.inner.panics {
@@ -609,74 +620,98 @@ impl Scene {
                 return Err(EmbreeError::CallbackPanicked { geom_id: *geom_id, callback, message });
             }
         }
-        self.committed = true;
-        Ok(())
-    }
-
-    /// Whether the scene is committed.
-    pub fn is_committed(&self) -> bool {
-        self.committed
-    }
-
-    /// Bounds of the committed scene.
-    pub fn bounds(&self) -> (Vec3, Vec3) {
         let mut b = sys::RTCBounds::default();
-        // SAFETY: the scene is live; `b` is a properly aligned RTCBounds to write into.
-        unsafe { sys::rtcGetSceneBounds(self.inner.raw, &mut b) };
-        (Vec3::new(b.lower_x, b.lower_y, b.lower_z), Vec3::new(b.upper_x, b.upper_y, b.upper_z))
+        // SAFETY: the scene is live and committed, used by this thread alone; `b` is a
+        // properly aligned RTCBounds to write into (rtcGetSceneBounds docs).
+        unsafe { sys::rtcGetSceneBounds(raw, &mut b) };
+        let bounds = (Vec3::new(b.lower_x, b.lower_y, b.lower_z), Vec3::new(b.upper_x, b.upper_y, b.upper_z));
+        let robust = self.robust();
+        Ok(CommittedScene { inner: Arc::new(self.inner), bounds, robust })
+    }
+}
+
+impl std::fmt::Debug for Scene {
+    fn fmt(&self, f: &mut std::fmt::Formatter<'_>) -> std::fmt::Result {
+        f.debug_struct("Scene").field("raw", &self.inner.raw).finish_non_exhaustive()
+    }
+}
+
+impl std::fmt::Debug for CommittedScene {
+    fn fmt(&self, f: &mut std::fmt::Formatter<'_>) -> std::fmt::Result {
+        f.debug_struct("CommittedScene")
+            .field("raw", &self.inner.raw)
+            .field("bounds", &self.bounds)
+            .field("robust", &self.robust)
+            .finish_non_exhaustive()
+    }
+}
+
+impl CommittedScene {
+    /// The builder back, to change the scene and commit it again; refused (the committed
+    /// scene given back, still traced) while another scene instances it.
+    pub fn edit(self) -> Result<Scene, CommittedScene> {
+        match Arc::try_unwrap(self.inner) {
+            Ok(inner) => Ok(Scene { inner, _not_sync: PhantomData }),
+            Err(inner) => Err(CommittedScene { inner, ..self }),
+        }
     }
 
-    /// The nearest hit along `ray` in `(tnear, tfar)`; `None` on an uncommitted scene.
+    /// The device this scene lives on.
+    pub fn device(&self) -> &Device {
+        &self.inner.device
+    }
+
+    /// The raw handle, for callers tracing this scene with their own Embree code. It stays
+    /// valid while `self` lives.
+    pub fn raw(&self) -> sys::RTCScene {
+        self.inner.raw
+    }
+
+    /// Whether it was committed in robust mode (see [`Scene::set_robust`]).
+    pub fn robust(&self) -> bool {
+        self.robust
+    }
+
+    /// Bounds of the scene (lower, upper corners), as Embree reported them at commit.
+    pub fn bounds(&self) -> (Vec3, Vec3) {
+        self.bounds
+    }
+
+    /// The nearest hit along `ray` in `(tnear, tfar)`.
     ///
     /// A panic in a user geometry's callback during the query is resumed here.
     pub fn intersect1(&self, ray: Ray) -> Option<Hit> {
-        let mut rh = empty_rayhit(ray);
-        self.intersect1_raw(&mut rh, None).ok()?;
+        let mut rh = new_rayhit(ray);
+        self.intersect1_raw(&mut rh, None);
         hit_of(&rh)
     }
 
-    /// Whether anything blocks `ray` in `(tnear, tfar)`; `false` on an uncommitted scene.
+    /// Whether anything blocks `ray` in `(tnear, tfar)`.
     ///
     /// A panic in a user geometry's callback during the query is resumed here.
     pub fn occluded1(&self, ray: Ray) -> bool {
         let mut r = ray.to_sys();
-        self.occluded1_raw(&mut r, None).is_ok() && r.tfar == f32::NEG_INFINITY
+        self.occluded1_raw(&mut r, None);
+        r.tfar == f32::NEG_INFINITY
     }
 
     /// `rtcIntersect1` on a raw ray-hit with optional arguments (context, filter, flags).
-    /// Refused on an uncommitted scene ([`EmbreeError::NotCommitted`], `rayhit` untouched);
-    /// a panic in a user geometry's callback during the query is resumed here.
-    pub fn intersect1_raw(
-        &self,
-        rayhit: &mut sys::RTCRayHit,
-        args: Option<&mut IntersectArgs<'_>>,
-    ) -> Result<(), EmbreeError> {
-        if !self.committed {
-            return Err(EmbreeError::NotCommitted);
-        }
+    /// A panic in a user geometry's callback during the query is resumed here.
+    pub fn intersect1_raw(&self, rayhit: &mut sys::RTCRayHit, args: Option<&mut IntersectArgs<'_>>) {
         let args = args.map_or(std::ptr::null_mut(), |a| &mut a.raw as *mut _);
-        // SAFETY: the scene is live and committed, and only `&mut self` can change it; `rayhit`
+        // SAFETY: the scene is live and committed, and nothing can change it; `rayhit`
         // is an exclusive RTCRayHit (plain data); `args` is NULL (Embree's defaults) or
         // arguments whose context is borrowed for the call and whose filter the caller of
         // `IntersectArgs::filter` vouched for (rtcIntersect1 docs).
         panic::query(|| unsafe { sys::rtcIntersect1(self.inner.raw, rayhit, args) });
-        Ok(())
     }
 
     /// `rtcOccluded1` on a raw ray with optional arguments; occluded gives `tfar = -inf`.
-    /// Refused on an uncommitted scene, as [`Scene::intersect1_raw`].
-    pub fn occluded1_raw(
-        &self,
-        ray: &mut sys::RTCRay,
-        args: Option<&mut OccludedArgs<'_>>,
-    ) -> Result<(), EmbreeError> {
-        if !self.committed {
-            return Err(EmbreeError::NotCommitted);
-        }
+    /// A panic in a user geometry's callback during the query is resumed here.
+    pub fn occluded1_raw(&self, ray: &mut sys::RTCRay, args: Option<&mut OccludedArgs<'_>>) {
         let args = args.map_or(std::ptr::null_mut(), |a| &mut a.raw as *mut _);
         // SAFETY: as in `intersect1_raw`, with `ray` an exclusive RTCRay (rtcOccluded1 docs).
         panic::query(|| unsafe { sys::rtcOccluded1(self.inner.raw, ray, args) });
-        Ok(())
     }
 }
 
@@ -693,18 +728,15 @@ fn aligned_valid<const N: usize>(valid: &[i32; N]) -> AlignedValid<N> {
 
 macro_rules! packet_queries {
     ($isect:ident, $occl:ident, $n:literal, $rayhit:ty, $ray:ty, $fi:ident, $fo:ident) => {
-        impl Scene {
+        impl CommittedScene {
             #[doc = concat!("`rtcIntersect", stringify!($n), "`: lanes with `valid[i] == -1` are traced.")]
-            /// Refused on an uncommitted scene; a callback panic is resumed here.
+            /// A callback panic is resumed here.
             pub fn $isect(
                 &self,
                 valid: &[i32; $n],
                 rayhit: &mut $rayhit,
                 args: Option<&mut IntersectArgs<'_>>,
-            ) -> Result<(), EmbreeError> {
-                if !self.committed {
-                    return Err(EmbreeError::NotCommitted);
-                }
+            ) {
                 let args = args.map_or(std::ptr::null_mut(), |a| &mut a.raw as *mut _);
                 let valid = aligned_valid(valid);
                 // SAFETY: the scene is live and committed; `valid` has N lanes of -1 or 0 and
@@ -712,24 +744,14 @@ macro_rules! packet_queries {
                 // with Embree's layout and alignment (repr(align) in the bindings), exclusive
                 // plain data; `args` as in `intersect1_raw` (rtcIntersect4/8/16 docs).
                 panic::query(|| unsafe { sys::$fi(valid.0.as_ptr(), self.inner.raw, rayhit, args) });
-                Ok(())
             }
             #[doc = concat!("`rtcOccluded", stringify!($n), "`: occluded lanes get `tfar = -inf`.")]
-            /// Refused on an uncommitted scene; a callback panic is resumed here.
-            pub fn $occl(
-                &self,
-                valid: &[i32; $n],
-                ray: &mut $ray,
-                args: Option<&mut OccludedArgs<'_>>,
-            ) -> Result<(), EmbreeError> {
-                if !self.committed {
-                    return Err(EmbreeError::NotCommitted);
-                }
+            /// A callback panic is resumed here.
+            pub fn $occl(&self, valid: &[i32; $n], ray: &mut $ray, args: Option<&mut OccludedArgs<'_>>) {
                 let args = args.map_or(std::ptr::null_mut(), |a| &mut a.raw as *mut _);
                 let valid = aligned_valid(valid);
                 // SAFETY: as for the intersect variant (rtcOccluded4/8/16 docs).
                 panic::query(|| unsafe { sys::$fo(valid.0.as_ptr(), self.inner.raw, ray, args) });
-                Ok(())
             }
         }
     };
@@ -738,7 +760,7 @@ packet_queries!(intersect4, occluded4, 4, sys::RTCRayHit4, sys::RTCRay4, rtcInte
 packet_queries!(intersect8, occluded8, 8, sys::RTCRayHit8, sys::RTCRay8, rtcIntersect8, rtcOccluded8);
 packet_queries!(intersect16, occluded16, 16, sys::RTCRayHit16, sys::RTCRay16, rtcIntersect16, rtcOccluded16);
 
-/// The number of rays in a packet of [`Scene::intersect8_rays`] / [`Scene::occluded8_rays`].
+/// The number of rays in a packet of [`CommittedScene::intersect8_rays`] / [`CommittedScene::occluded8_rays`].
 pub const PACKET8: usize = 8;
 
 /// An 8-ray packet in Embree's SOA layout, from `rays` (AOS); lane `i` is traced when bit `i`
@@ -780,12 +802,12 @@ pub(crate) fn query_flags(coherent: bool) -> sys::RTCRayQueryFlags {
     }
 }
 
-impl Scene {
+impl CommittedScene {
     /// The nearest hit of each of 8 rays traced as one packet (`rtcIntersect8`): lane `i` is
     /// traced when bit `i` of `active` is set, the others answer `None`; `coherent` tells
     /// Embree the rays are coherent (`RTC_RAY_QUERY_FLAG_COHERENT`: primary rays from a pixel
-    /// block, hard shadows towards one light). Each lane answers as [`Scene::intersect1`] on
-    /// its ray; all `None` on an uncommitted scene. A callback panic is resumed here.
+    /// block, hard shadows towards one light). Each lane answers as [`CommittedScene::intersect1`] on
+    /// its ray. A callback panic is resumed here.
     pub fn intersect8_rays(
         &self,
         rays: &[Ray; PACKET8],
@@ -794,9 +816,10 @@ impl Scene {
     ) -> [Option<Hit>; PACKET8] {
         let mut rh = rayhit8(rays);
         let mut args = IntersectArgs::new().flags(query_flags(coherent));
-        if active == 0 || self.intersect8(&valid8(active), &mut rh, Some(&mut args)).is_err() {
+        if active == 0 {
             return [None; PACKET8];
         }
+        self.intersect8(&valid8(active), &mut rh, Some(&mut args));
         std::array::from_fn(|k| {
             (active & (1 << k) != 0 && rh.hit.geomID[k] != sys::RTC_INVALID_GEOMETRY_ID).then(|| Hit {
                 t: rh.ray.tfar[k],
@@ -812,14 +835,15 @@ impl Scene {
 
     /// Whether anything blocks each of 8 rays traced as one packet (`rtcOccluded8`): bit `i` of
     /// the answer is set when lane `i` is active (bit `i` of `active`) and blocked, as
-    /// [`Scene::occluded1`] on its ray; 0 on an uncommitted scene. `coherent` as in
-    /// [`Scene::intersect8_rays`]. A callback panic is resumed here.
+    /// [`CommittedScene::occluded1`] on its ray. `coherent` as in
+    /// [`CommittedScene::intersect8_rays`]. A callback panic is resumed here.
     pub fn occluded8_rays(&self, rays: &[Ray; PACKET8], active: u8, coherent: bool) -> u8 {
         let mut ray = rayhit8(rays).ray;
         let mut args = OccludedArgs::new().flags(query_flags(coherent));
-        if active == 0 || self.occluded8(&valid8(active), &mut ray, Some(&mut args)).is_err() {
+        if active == 0 {
             return 0;
         }
+        self.occluded8(&valid8(active), &mut ray, Some(&mut args));
         (0..PACKET8)
             .fold(0, |m, k| m | (((active & (1 << k) != 0 && ray.tfar[k] == f32::NEG_INFINITY) as u8) << k))
     }

@@ -10,6 +10,7 @@
 
 use std::cell::Cell;
 use std::ffi::c_void;
+use std::sync::atomic::{AtomicU64, Ordering};
 use std::sync::Arc;
 
 use glam::Vec3;
@@ -17,7 +18,8 @@ use glam::Vec3;
 use super::device::{EmbreeError, MAX_INSTANCE_LEVEL_COUNT};
 use super::panic::{self, PanicRecord};
 use super::scene::{
-    query_flags, rayhit8, valid8, Hit, OccludedArgs, OwnedGeometry, QueryContext, Ray, Scene, PACKET8,
+    query_flags, rayhit8, valid8, CommittedScene, GeometryOptions, Hit, OccludedArgs, OwnedGeometry,
+    QueryContext, Ray, Scene, PACKET8,
 };
 use crate::sys;
 
@@ -49,7 +51,7 @@ pub struct OriginPrim {
     pub v: f32,
 }
 
-/// Where an occlusion ray starts, for [`Scene::occluded1_from`] and [`Scene::occluded8_rays_from`]:
+/// Where an occlusion ray starts, for [`CommittedScene::occluded1_from`] and [`CommittedScene::occluded8_rays_from`]:
 /// the hit it leaves from (geometry, primitive, `(u, v)` and instance stack, as [`Hit`] reports
 /// them). A user geometry may then leave out the primitive the ray starts on where it proves the
 /// ray cannot meet it again ([`UserPrimitives::intersect_from`]); the answer is the same.
@@ -83,7 +85,7 @@ pub trait UserPrimitives: Send + Sync + 'static {
     /// The nearest hit of `org + t dir` with `t` in the open interval `(tnear, tfar)`.
     fn intersect(&self, prim: u32, org: Vec3, dir: Vec3, tnear: f32, tfar: f32) -> Option<PrimHit>;
     /// [`UserPrimitives::intersect`] for an occlusion ray that starts on this geometry at
-    /// `origin` ([`Scene::occluded1_from`]): an implementation may leave out the member `origin`
+    /// `origin` ([`CommittedScene::occluded1_from`]): an implementation may leave out the member `origin`
     /// names where it proves the ray cannot meet it, and must otherwise answer as `intersect`.
     /// The default ignores the origin.
     #[inline(always)]
@@ -136,7 +138,7 @@ pub struct PacketRays {
     /// The open intervals' upper ends.
     pub tfar: [f32; MAX_PACKET],
     /// Where each lane's ray starts on this geometry, if known (occlusion rays of
-    /// [`Scene::occluded8_rays_from`]), as [`UserPrimitives::intersect_from`] takes it.
+    /// [`CommittedScene::occluded8_rays_from`]), as [`UserPrimitives::intersect_from`] takes it.
     pub origin: [Option<OriginPrim>; MAX_PACKET],
 }
 
@@ -314,6 +316,17 @@ unsafe fn write_hit(
     }
 }
 
+/// Hits refused because their `t` was outside the ray's `(tnear, tfar)`.
+static OUT_OF_RANGE: AtomicU64 = AtomicU64::new(0);
+
+/// How many hits [`UserPrimitives::intersect`] implementations returned, in this process so
+/// far, with `t` outside the open interval `(tnear, tfar)` they were asked about (or NaN): each
+/// was refused (the ray saw no hit from that call) and counted here. A correct implementation
+/// never adds to it.
+pub fn user_hits_out_of_range() -> u64 {
+    OUT_OF_RANGE.load(Ordering::Relaxed)
+}
+
 /// The most candidate hits offered to the filters per primitive and lane.
 const MAX_CANDIDATES: usize = 32;
 
@@ -382,7 +395,7 @@ unsafe extern "C" fn intersect_callback<T: UserPrimitives>(args: *const sys::RTC
 /// after a rejected candidate, look beyond it (at most [`MAX_CANDIDATES`]: 4 roots for each of
 /// a cluster's 8 patches, the resultant of a line and a quadratic patch being a quartic). A
 /// rejection restores the lane's `tfar`, so its value read here holds. `origin(lane)` is where
-/// the lane's ray starts on this geometry, if known (occlusion rays of [`Scene::occluded1_from`]).
+/// the lane's ray starts on this geometry, if known (occlusion rays of [`CommittedScene::occluded1_from`]).
 /// One lane is tested alone; a packet's first candidates come from
 /// [`UserPrimitives::intersect_packet`], all its lanes (and their origins) at once.
 ///
@@ -435,12 +448,20 @@ fn offer_candidates<T: UserPrimitives>(
     first: Option<PrimHit>,
     offer: &mut impl FnMut(usize, &LaneRay, &PrimHit) -> bool,
 ) {
-    let mut next = first;
+    let (mut next, mut tnear) = (first, r.tnear);
     for _ in 0..MAX_CANDIDATES {
         let Some(h) = next else { break };
+        // Embree takes the hit's t as the ray's new tfar: one outside the interval asked for
+        // (or NaN) would be a hit behind the origin or past a nearer one. Refused, and counted
+        // ([`user_hits_out_of_range`]).
+        if !(h.t > tnear && h.t < r.tfar) {
+            OUT_OF_RANGE.fetch_add(1, Ordering::Relaxed);
+            break;
+        }
         if offer(lane, r, &h) {
             break;
         }
+        tnear = h.t;
         next = data.intersect_from(prim, from, r.org, r.dir, h.t, r.tfar);
     }
 }
@@ -694,8 +715,8 @@ const NO_ORIGIN: RayOrigin = RayOrigin {
     inst_id: [u32::MAX; MAX_INSTANCE_LEVEL_COUNT],
 };
 
-impl Scene {
-    /// [`Scene::occluded1`] for a ray that starts at `origin` (the hit it leaves from): the same
+impl CommittedScene {
+    /// [`CommittedScene::occluded1`] for a ray that starts at `origin` (the hit it leaves from): the same
     /// answer, with the primitive it starts on left out where its geometry proves the ray cannot
     /// meet it again (Phong patches: [`crate::phong::convexity::leaves_patch`]). `None` is
     /// `occluded1`.
@@ -706,11 +727,12 @@ impl Scene {
             ctx.origins[0] = o;
             r.id = 1;
         }
-        ctx.query(false, |args| self.occluded1_raw(&mut r, Some(args)).is_ok() && r.tfar == f32::NEG_INFINITY)
+        ctx.query(false, |args| self.occluded1_raw(&mut r, Some(args)));
+        r.tfar == f32::NEG_INFINITY
     }
 
-    /// [`Scene::occluded8_rays`] for rays that start at `origins[k]` (lane `k`), as
-    /// [`Scene::occluded1_from`] for one ray: the same answers.
+    /// [`CommittedScene::occluded8_rays`] for rays that start at `origins[k]` (lane `k`), as
+    /// [`CommittedScene::occluded1_from`] for one ray: the same answers.
     pub fn occluded8_rays_from(
         &self,
         rays: &[Ray; PACKET8],
@@ -729,16 +751,15 @@ impl Scene {
                 ray.id[k] = k as u32 + 1;
             }
         }
-        if !ctx.query(coherent, |args| self.occluded8(&valid8(active), &mut ray, Some(args)).is_ok()) {
-            return 0;
-        }
+        ctx.query(coherent, |args| self.occluded8(&valid8(active), &mut ray, Some(args)));
         (0..PACKET8)
             .fold(0, |m, k| m | (((active & (1 << k) != 0 && ray.tfar[k] == f32::NEG_INFINITY) as u8) << k))
     }
 }
 
-/// The options of a user geometry: the same as every attach's ([`GeometryOptions`](super::scene::GeometryOptions)).
-pub use super::scene::GeometryOptions as UserGeometryOptions;
+/// The former name of [`GeometryOptions`], the one options type of every attach.
+#[deprecated(since = "0.1.0", note = "use GeometryOptions, the one options type of every attach")]
+pub type UserGeometryOptions = GeometryOptions;
 
 /// Create a committed user geometry for `data` on `device_raw`. The caller must keep `data`
 /// at its address for as long as the geometry can be traced.
@@ -749,7 +770,7 @@ pub use super::scene::GeometryOptions as UserGeometryOptions;
 pub(crate) unsafe fn new_user_geometry<T: UserPrimitives>(
     device_raw: sys::RTCDevice,
     data: *const UserData<T>,
-    options: UserGeometryOptions,
+    options: GeometryOptions,
 ) -> sys::RTCGeometry {
     // SAFETY: the caller guarantees the device and data; the callbacks are monomorphised for
     // `T` and only ever cast geometryUserPtr back to `UserData<T>`; a null geometry (error
@@ -780,21 +801,28 @@ impl Scene {
     pub fn attach_user<T: UserPrimitives>(
         &mut self,
         prims: T,
-        options: UserGeometryOptions,
+        options: GeometryOptions,
     ) -> Result<u32, EmbreeError> {
         let boxed = Box::new(UserData::new(prims));
         let ptr: *const UserData<T> = &*boxed;
         let record = boxed.panics.clone();
         let device = self.device().clone();
         // Hand the box to the scene first: its heap address stays put when the box moves.
-        self.keep_alive(boxed)?;
-        // SAFETY: the device is live; `ptr` points into the box the scene now owns, released
-        // only after the scene (and so the geometry) is (SceneHandle field order).
-        let raw = unsafe { new_user_geometry(device.raw(), ptr, options) };
-        let geom = OwnedGeometry::new(&device, raw, "user geometry")?;
-        device.check()?;
+        self.keep_alive(boxed);
+        // The geometry's setters return nothing: `call` reads the errors they record, and a
+        // geometry made before one failed is released with the `OwnedGeometry`.
+        let geom = device.call(|| {
+            let raw = {
+                let _device = device.lock();
+                // SAFETY: the device is live and locked; `ptr` points into the box the scene now
+                // owns, released only after the scene (and so the geometry) is (SceneHandle
+                // field order).
+                unsafe { new_user_geometry(device.raw(), ptr, options) }
+            };
+            OwnedGeometry::new(&device, raw, "user geometry")
+        })??;
         let id = self.attach_raw(geom)?;
-        self.watch_panics(id, record)?;
+        self.watch_panics(id, record);
         Ok(id)
     }
 }

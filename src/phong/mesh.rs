@@ -118,7 +118,9 @@ impl<'a> PhongMeshBuilder<'a> {
         self
     }
 
-    /// The shape factor in [0, 1] (0 = flat triangles; 1, the default, = full Phong tessellation).
+    /// The shape factor in [0, 1] (0 = flat triangles, 1 = full Phong tessellation); the
+    /// default is [`crate::phong::DEFAULT_ALPHA`] (0.75, Boubekeur and Alexa's recommendation),
+    /// as everywhere else in phongrt. `.alpha(1.0)` gives the builder's former default.
     pub fn alpha(mut self, alpha: f32) -> Self {
         self.alpha = alpha;
         self
@@ -273,7 +275,7 @@ impl PhongMesh {
         Self::builder(&positions, &normals, &indices).alpha(alpha).build()
     }
 
-    /// Options for a mesh of these arrays (watertight, alpha 1, certified intersection unless
+    /// Options for a mesh of these arrays (watertight, alpha [`crate::phong::DEFAULT_ALPHA`], certified intersection unless
     /// set): see [`PhongMeshBuilder`].
     pub fn builder<'a>(
         positions: &'a [Vec3],
@@ -284,7 +286,7 @@ impl PhongMesh {
             positions,
             normals,
             indices,
-            alpha: 1.0,
+            alpha: crate::phong::DEFAULT_ALPHA,
             edges: EdgeRule::Watertight { weld_tolerance: crate::mesh::WELD_TOLERANCE },
             method: Method::Certified,
             cluster_size: 1,

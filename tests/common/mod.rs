@@ -87,6 +87,14 @@ pub fn corpus_quiet() -> Option<PathBuf> {
         .find(|c| c.is_dir())
 }
 
+/// The corpus, for the tests marked `#[ignore = "needs ../shared/corpus"]`: they run with
+/// `cargo test -- --ignored` (CI does) and fail here, loudly, when it is absent.
+pub fn corpus_required() -> PathBuf {
+    corpus_quiet().unwrap_or_else(|| {
+        panic!("../shared/corpus is absent: this test needs it (put the corpus beside the checkout or set PHONGRT_CORPUS)")
+    })
+}
+
 /// `valgrind` (memcheck; definite leaks are errors, exit code 9) set up to run `exe`, or `None`
 /// with a message when valgrind is not installed.
 pub fn valgrind(exe: &Path) -> Option<Command> {

@@ -6,33 +6,36 @@ use std::path::Path;
 use std::time::Instant;
 
 use glam::Vec3;
-use phongrt::embree::{
-    set_flush_denormals, Device, GeometryOptions, PhongMesh, Ray, Scene, UserGeometryOptions,
-};
+use phongrt::embree::{CommittedScene, Device, GeometryOptions, PhongMesh, Ray, Scene};
 use phongrt::scene::{load_obj, uv_sphere, LoadOptions, Mesh};
 use phongrt_cli::bench::median;
 use phongrt_render::Camera;
 
-fn build(device: &Device, m: &Mesh, phong: bool) -> (Scene, f64, i64, usize) {
+fn build(device: &Device, m: &Mesh, phong: bool) -> (CommittedScene, f64, i64, usize) {
     let before = device.memory_bytes().0;
     let t = Instant::now();
     let mut s = Scene::new(device).unwrap();
     let own = if phong {
         let pm = PhongMesh::new(m.positions.clone(), m.normals.clone(), m.indices.clone(), 1.0).unwrap();
         let own = pm.memory_bytes();
-        s.attach_phong(pm, UserGeometryOptions::default()).unwrap();
+        s.attach_phong(pm, GeometryOptions::default()).unwrap();
         own
     } else {
         s.attach_triangles(&m.positions, &m.indices, GeometryOptions::default()).unwrap();
         0
     };
-    s.commit().unwrap();
+    let s = s.commit().unwrap();
     let secs = t.elapsed().as_secs_f64();
     (s, secs, device.memory_bytes().0 - before, own)
 }
 
+/// On one thread in the float mode Embree recommends (FTZ/DAZ), as the renderer's threads run.
 fn main() {
-    set_flush_denormals();
+    let pool = phongrt::embree::thread_pool_builder().num_threads(1).build().expect("a thread pool");
+    pool.install(bench_main);
+}
+
+fn bench_main() {
     let device = Device::with_config("threads=1").unwrap();
     let mut models: Vec<(String, Mesh)> = vec![("sphere 12x6".into(), uv_sphere(12, 6, 1.0))];
     let corpus = Path::new(env!("CARGO_MANIFEST_DIR")).join("../shared/corpus");

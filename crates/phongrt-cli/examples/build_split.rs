@@ -5,7 +5,7 @@ use std::path::PathBuf;
 use std::time::Instant;
 
 use anyhow::Context;
-use phongrt::embree::{Device, GeometryOptions, PhongMesh, Scene, UserGeometryOptions};
+use phongrt::embree::{Device, GeometryOptions, PhongMesh, Scene};
 use phongrt::scene::{load_obj, LoadOptions};
 
 fn main() -> anyhow::Result<()> {
@@ -21,13 +21,13 @@ fn main() -> anyhow::Result<()> {
             PhongMesh::with_straight_edges(&m.positions, &m.normals, &m.indices, 1.0, Some(&straight))?;
         let t1 = Instant::now();
         let mut s = Scene::new(&device)?;
-        s.attach_phong(mesh, UserGeometryOptions::default())?;
+        s.attach_phong(mesh, GeometryOptions::default())?;
         let t2 = Instant::now();
-        s.commit()?;
+        let _s = s.commit()?;
         let t3 = Instant::now();
         let mut f = Scene::new(&device)?;
         f.attach_triangles(&m.positions, &m.indices, GeometryOptions::default())?;
-        f.commit()?;
+        let _f = f.commit()?;
         let t4 = Instant::now();
         patches = patches.min((t1 - t0).as_secs_f64() * 1e3);
         commit = commit.min((t3 - t2).as_secs_f64() * 1e3);

@@ -7,8 +7,8 @@ use glam::Vec3;
 use rayon::prelude::*;
 
 use phongrt::embree::{
-    patch_prim_hit, Device, EmbreeError, GeometryOptions, PhongMesh, PhongMeshError, PrimHit, Ray, RayOrigin,
-    Scene, UserGeometryOptions, UserPrimitives, UserTriangles, PACKET8,
+    patch_prim_hit, CommittedScene, Device, EmbreeError, GeometryOptions, PhongMesh, PhongMeshError, PrimHit,
+    Ray, RayOrigin, Scene, UserPrimitives, UserTriangles, PACKET8,
 };
 use phongrt::phong::{control_points, intersect, Method, Patch, V3};
 use phongrt::scene::Mesh;
@@ -265,7 +265,12 @@ pub enum BenchError {
     Camera(String),
 }
 
-fn build(device: &Device, m: &Mesh, method: BenchMethod, robust: bool) -> Result<(Scene, usize), BenchError> {
+fn build(
+    device: &Device,
+    m: &Mesh,
+    method: BenchMethod,
+    robust: bool,
+) -> Result<(CommittedScene, usize), BenchError> {
     let mut s = Scene::new(device)?;
     if robust {
         s.set_robust(true)?;
@@ -292,25 +297,26 @@ fn build(device: &Device, m: &Mesh, method: BenchMethod, robust: bool) -> Result
                 _ => (Method::Certified, 1),
             };
             let pm = PhongMesh::builder(&m.positions, &m.normals, &m.indices)
+                .alpha(1.0)
                 .straight_edges(&straight)
                 .method(solver)
                 .cluster_size(k)
                 .build()?;
             let own = pm.memory_bytes();
-            s.attach_phong(pm, UserGeometryOptions::default())?;
+            s.attach_phong(pm, GeometryOptions::default())?;
             own
         }
         BenchMethod::DirectF64 => {
             let patches = patches64(m, 1.0);
             let own = patches.len() * std::mem::size_of::<Patch<f64>>();
-            s.attach_user(PhongMesh64 { patches }, UserGeometryOptions::default())?;
+            s.attach_user(PhongMesh64 { patches }, GeometryOptions::default())?;
             own
         }
         BenchMethod::UserFloor => {
             let own = m.positions.len() * 12 + m.indices.len() * 12;
             s.attach_user(
                 UserTriangles { positions: m.positions.clone(), indices: m.indices.clone() },
-                UserGeometryOptions::default(),
+                GeometryOptions::default(),
             )?;
             own
         }
@@ -319,7 +325,7 @@ fn build(device: &Device, m: &Mesh, method: BenchMethod, robust: bool) -> Result
             0
         }
     };
-    s.commit()?;
+    let s = s.commit()?;
     Ok((s, own))
 }
 
@@ -360,7 +366,13 @@ pub fn bench_light(frame: &phongrt_render::CameraFrame) -> Vec3 {
 
 /// The shaded render of `shaded_ms`: returns the summed radiance (so the work is not optimised
 /// away, and as a cross-check between methods).
-fn shaded(scene: &Scene, frame: &phongrt_render::CameraFrame, width: u32, height: u32, light: Vec3) -> f64 {
+fn shaded(
+    scene: &CommittedScene,
+    frame: &phongrt_render::CameraFrame,
+    width: u32,
+    height: u32,
+    light: Vec3,
+) -> f64 {
     let row = |y: u32| -> f64 {
         let mut sum = 0.0f64;
         for x in 0..width {
@@ -390,7 +402,7 @@ fn block_lanes(bx: u32, by: u32, width: u32, height: u32) -> u8 {
 
 /// [`depth`] on one thread with the rays (one per pixel, row-major) traced in coherent 8-ray
 /// packets from 4x2 pixel blocks: the same depths.
-fn depth_packets(scene: &Scene, rays: &[Ray], width: u32, height: u32) -> Vec<Option<f32>> {
+fn depth_packets(scene: &CommittedScene, rays: &[Ray], width: u32, height: u32) -> Vec<Option<f32>> {
     let mut out = vec![None; rays.len()];
     for by in (0..height).step_by(2) {
         for bx in (0..width).step_by(4) {
@@ -411,7 +423,7 @@ fn depth_packets(scene: &Scene, rays: &[Ray], width: u32, height: u32) -> Vec<Op
 /// coherent 8-ray packets from 4x2 pixel blocks (one packet per block and sample): the same
 /// lanes hit and are lit, so the sum is `shaded`'s up to summation order.
 fn shaded_packets(
-    scene: &Scene,
+    scene: &CommittedScene,
     frame: &phongrt_render::CameraFrame,
     width: u32,
     height: u32,
@@ -449,7 +461,7 @@ fn shaded_packets(
     (0..height.div_ceil(2)).into_par_iter().map(|i| rows(2 * i)).sum()
 }
 
-fn depth(scene: &Scene, rays: &[Ray], parallel: bool) -> Vec<Option<f32>> {
+fn depth(scene: &CommittedScene, rays: &[Ray], parallel: bool) -> Vec<Option<f32>> {
     if parallel {
         rays.par_iter().map(|r| scene.intersect1(*r).map(|h| h.t)).collect()
     } else {

@@ -96,13 +96,24 @@ fn one_line(e: &anyhow::Error) -> String {
 fn run(cli: Cli) -> anyhow::Result<()> {
     // SIGTERM, SIGINT and SIGHUP remove our temporary files and exit with 128 + the signal.
     phongrt_render::temp_file::remove_on_signals().context("cannot watch for signals")?;
-    embree::set_flush_denormals();
     // Every thread that traces rays runs in the float mode Embree asks for, not only the
-    // renderer's own pool: rayon's global pool (the bench's multi-threaded rays) too.
-    rayon::ThreadPoolBuilder::new()
-        .start_handler(|_| embree::set_flush_denormals())
+    // renderer's own pool: rayon's global pool (the bench's multi-threaded rays) too, and the
+    // command itself runs on it (the single-ray paths: the bench's one-thread rays, profiles).
+    // Its threads get the main thread's 8 MiB stack.
+    embree::thread_pool_builder()
+        .stack_size(8 << 20)
         .build_global()
         .context("cannot start the thread pool")?;
+    on_global_pool(move || run_command(cli))
+}
+
+/// Run `f` on a thread of rayon's global pool and wait for it (`rayon::scope` called from
+/// outside the pool runs its closure on one of the pool's threads).
+fn on_global_pool<R: Send>(f: impl FnOnce() -> R + Send) -> R {
+    rayon::scope(|_| f())
+}
+
+fn run_command(cli: Cli) -> anyhow::Result<()> {
     match cli.command {
         Command::Render(args) => render_cmd::render_cmd(*args),
         Command::Info(args) => info::info_cmd(args),

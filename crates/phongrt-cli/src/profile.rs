@@ -17,8 +17,8 @@ use glam::Vec3;
 
 use crate::bench::{bench_light, primary_rays, shadow_ray, BenchError};
 use phongrt::embree::{
-    Device, GeometryOptions, OriginPrim, PatchTest, PhongMesh, PrimHit, Ray, RayOrigin, Scene,
-    UserGeometryOptions, UserPrimitives, UserTriangles, PACKET8,
+    CommittedScene, Device, GeometryOptions, OriginPrim, PatchTest, PhongMesh, PrimHit, Ray, RayOrigin,
+    Scene, UserPrimitives, UserTriangles, PACKET8,
 };
 use phongrt::phong::{intersect_in_hull_traced, intersect_traced, TestOutcome, V3};
 use phongrt::scene::Mesh;
@@ -97,11 +97,11 @@ type CallLog = Arc<Mutex<Vec<Call>>>;
 fn recording_scene<T: UserPrimitives>(
     device: &Device,
     prims: Arc<T>,
-) -> Result<(Scene, CallLog), BenchError> {
+) -> Result<(CommittedScene, CallLog), BenchError> {
     let calls = Arc::new(Mutex::new(Vec::new()));
     let mut scene = Scene::new(device)?;
-    scene.attach_user(Recording { inner: prims, calls: calls.clone() }, UserGeometryOptions::default())?;
-    scene.commit()?;
+    scene.attach_user(Recording { inner: prims, calls: calls.clone() }, GeometryOptions::default())?;
+    let scene = scene.commit()?;
     Ok((scene, calls))
 }
 
@@ -109,7 +109,7 @@ fn recording_scene<T: UserPrimitives>(
 type Traced = (Ray, Option<RayOrigin>);
 
 /// Trace `rays` of `kind` through `scene` on this thread.
-fn trace(scene: &Scene, rays: &[Traced], kind: RayKind) {
+fn trace(scene: &CommittedScene, rays: &[Traced], kind: RayKind) {
     for (r, origin) in rays {
         match kind {
             RayKind::Primary => {
@@ -145,7 +145,7 @@ fn rays_of(
 }
 
 /// The calls `scene` logs into `log` while `rays` are traced.
-fn calls_of(scene: &Scene, log: &Mutex<Vec<Call>>, rays: &[Traced], kind: RayKind) -> Vec<Call> {
+fn calls_of(scene: &CommittedScene, log: &Mutex<Vec<Call>>, rays: &[Traced], kind: RayKind) -> Vec<Call> {
     let take = || std::mem::take(&mut *log.lock().unwrap_or_else(|e| e.into_inner()));
     take();
     trace(scene, rays, kind);
@@ -232,26 +232,27 @@ struct Solve {
 /// (recording), and a plain scene of the Phong mesh for timing.
 struct Scenes {
     mesh: Arc<PhongMesh>,
-    recording: (Scene, CallLog),
-    direct: Scene,
-    flat: Scene,
-    floor: (Scene, CallLog),
+    recording: (CommittedScene, CallLog),
+    direct: CommittedScene,
+    flat: CommittedScene,
+    floor: (CommittedScene, CallLog),
 }
 
 impl Scenes {
     fn new(device: &Device, m: &Mesh, cluster_size: usize) -> Result<Self, BenchError> {
         let mesh = Arc::new(
             PhongMesh::builder(&m.positions, &m.normals, &m.indices)
+                .alpha(1.0)
                 .straight_edges(&m.straight_edges())
                 .cluster_size(cluster_size)
                 .build()?,
         );
         let mut direct = Scene::new(device)?;
-        direct.attach_phong(mesh.clone(), UserGeometryOptions::default())?;
-        direct.commit()?;
+        direct.attach_phong(mesh.clone(), GeometryOptions::default())?;
+        let direct = direct.commit()?;
         let mut flat = Scene::new(device)?;
         flat.attach_triangles(&m.positions, &m.indices, GeometryOptions::default())?;
-        flat.commit()?;
+        let flat = flat.commit()?;
         let floor = UserTriangles { positions: m.positions.clone(), indices: m.indices.clone() };
         Ok(Scenes {
             recording: recording_scene(device, mesh.clone())?,
@@ -331,7 +332,8 @@ fn profile_rays(name: &str, scenes: &Scenes, rays: &[Traced], kind: RayKind, clu
         std::hint::black_box(mesh.intersect_from(c.prim, c.origin, c.org, c.dir, c.tnear, c.tfar));
     };
     // Time the rays through Embree: each scene as the best of a few runs of all the rays.
-    let through = |scene: &Scene| replay_ns(&[()], |_| trace(scene, rays, kind)) / rays.len().max(1) as f64;
+    let through =
+        |scene: &CommittedScene| replay_ns(&[()], |_| trace(scene, rays, kind)) / rays.len().max(1) as f64;
     let per_ray = |x: f64| x / rays.len().max(1) as f64;
     Profile {
         scene: name.to_string(),
@@ -502,7 +504,7 @@ fn packets_of(rays: &[Option<Traced>], size: u32) -> Vec<Packet> {
 }
 
 /// Trace `packets` of `kind` through `scene`.
-fn trace_packets(scene: &Scene, packets: &[Packet], kind: RayKind) {
+fn trace_packets(scene: &CommittedScene, packets: &[Packet], kind: RayKind) {
     for (rays, origins, active) in packets {
         match kind {
             RayKind::Primary => {
@@ -574,17 +576,16 @@ pub fn count_work(
 }
 
 /// `mesh` as a user geometry whose packets are tested lane by lane ([`LaneByLane`]).
-fn lane_by_lane_scene(device: &Device, mesh: &Arc<PhongMesh>) -> Result<Scene, BenchError> {
+fn lane_by_lane_scene(device: &Device, mesh: &Arc<PhongMesh>) -> Result<CommittedScene, BenchError> {
     let mut scene = Scene::new(device)?;
-    scene.attach_user(LaneByLane(mesh.clone()), UserGeometryOptions::default())?;
-    scene.commit()?;
-    Ok(scene)
+    scene.attach_user(LaneByLane(mesh.clone()), GeometryOptions::default())?;
+    Ok(scene.commit()?)
 }
 
 /// The counted work of [`count_work`] for packets. Never inlined (callgrind's
 /// `--toggle-collect=*counted_packets*`).
 #[inline(never)]
-fn counted_packets(scene: &Scene, packets: &[Packet], kind: RayKind) {
+fn counted_packets(scene: &CommittedScene, packets: &[Packet], kind: RayKind) {
     trace_packets(scene, packets, kind);
 }
 
@@ -592,7 +593,7 @@ fn counted_packets(scene: &Scene, packets: &[Packet], kind: RayKind) {
 /// `replay`. Never inlined, so that callgrind's `--toggle-collect=*counted_work*` finds it.
 #[inline(never)]
 fn counted_work(
-    scene: &Scene,
+    scene: &CommittedScene,
     mesh: &PhongMesh,
     rays: &[Traced],
     kind: RayKind,

@@ -322,10 +322,8 @@ pub fn render_extent(
 
 /// A thread pool to render on: `threads` workers (`None` = one per core), each running in the
 /// float mode Embree asks for (flush-to-zero and denormals-are-zero) before it traces.
-// This is the one place the renderer sets the float mode of its threads: when the Embree layer
-// offers a pool builder of its own, this becomes a call to it.
 pub fn thread_pool(threads: Option<usize>) -> Result<rayon::ThreadPool, RenderError> {
-    let mut pool = rayon::ThreadPoolBuilder::new().start_handler(|_| embree::set_flush_denormals());
+    let mut pool = embree::thread_pool_builder();
     match threads {
         Some(0) => return Err(RenderError::ZeroThreads),
         Some(t) => pool = pool.num_threads(t),

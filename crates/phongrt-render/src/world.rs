@@ -9,7 +9,7 @@ use glam::{Vec2, Vec3};
 use super::texture::Texture;
 use super::{RayCounts, RenderError};
 use phongrt::embree::{
-    Device, GeometryOptions, Hit, PhongMesh, Ray, RayOrigin, Scene, UserGeometryOptions, PACKET8,
+    CommittedScene, Device, GeometryOptions, Hit, PhongMesh, Ray, RayOrigin, Scene, PACKET8,
 };
 use phongrt::phong::ShadingNormal;
 use phongrt::phong::{Real, V3};
@@ -491,7 +491,7 @@ impl ObjectSettings {
 /// Objects in one committed Embree scene, indexed by geomID, and the lights.
 pub struct World {
     pub device: Device,
-    pub scene: Scene,
+    pub scene: CommittedScene,
     pub objects: Vec<Object>,
     pub lights: Vec<Light>,
     pub ambient: Vec3,
@@ -563,7 +563,7 @@ impl World {
                     let pm = std::sync::Arc::new(pm);
                     phong = Some(pm.clone());
                     scene
-                        .attach_phong(pm, UserGeometryOptions::default())
+                        .attach_phong(pm, GeometryOptions::default())
                         .map_err(|source| RenderError::Object { name: mesh.name.clone(), source })?
                 }
             };
@@ -645,10 +645,9 @@ impl World {
                 texture: None,
             });
         }
-        scene.commit()?;
         Ok(World {
             device: device.clone(),
-            scene,
+            scene: scene.commit()?,
             objects,
             lights: default_lights(),
             ambient: Vec3::splat(0.12),
