@@ -124,9 +124,11 @@ fn corpus_balloons_shrink_and_the_head_keeps_its_shape() {
     // (model, largest deviation allowed with the rule, straightened edges at most)
     for (rel, bound, most) in [
         ("regr01/regr01.obj", 0.5, 20),
-        ("sponza_lwo/sponza.obj", 2.0, 2000),
+        // The small-face crease angle smooths more of sponza's edges: 4352 straightened (1149
+        // with --small-face-crease-angle 0), and bunny_lowres 1 (0), 1.52 widths (0.97).
+        ("sponza_lwo/sponza.obj", 2.0, 4400),
         ("african_head/african_head.obj", 1.6, 1),
-        ("bunny_lowres/bunny.obj", 1.0, 0),
+        ("bunny_lowres/bunny.obj", 1.6, 1),
         ("teapot/teapot.obj", 1.0, 0),
     ] {
         let s = load_obj(&corpus.join(rel), &LoadOptions::default()).unwrap();

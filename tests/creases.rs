@@ -179,3 +179,65 @@ fn rendered_cylinder_shows_no_background_inside_its_silhouette() {
     assert_eq!(holes[0], 0);
     assert!(holes[1] > 0, "the open-crease render shows no crack: the test lost its power");
 }
+
+/// A UV sphere without normals squashed to 0.4 of its radius on y (24 segments, 8 rings):
+/// small faces whose neighbours meet at up to about 50° near the rim.
+fn low_poly_lens_obj() -> String {
+    let (segments, rings) = (24, 8);
+    let mut t = String::from("v 0 0.4 0\nv 0 -0.4 0\n");
+    for j in 1..rings {
+        let th = std::f32::consts::PI * j as f32 / rings as f32;
+        for i in 0..segments {
+            let ph = std::f32::consts::TAU * i as f32 / segments as f32;
+            t += &format!("v {} {} {}\n", th.sin() * ph.cos(), 0.4 * th.cos(), th.sin() * ph.sin());
+        }
+    }
+    let at = |i: u32, j: u32| 3 + (j - 1) * segments + i % segments;
+    for i in 0..segments {
+        t += &format!("f 1 {} {}\n", at(i + 1, 1), at(i, 1));
+        t += &format!("f 2 {} {}\n", at(i, rings - 1), at(i + 1, rings - 1));
+        for j in 1..rings - 1 {
+            t += &format!("f {} {} {} {}\n", at(i, j), at(i + 1, j), at(i + 1, j + 1), at(i, j + 1));
+        }
+    }
+    t
+}
+
+fn crease_count(text: &str, small_face_angle: f32) -> usize {
+    let o = LoadOptions { small_face_crease_angle_deg: small_face_angle, ..Default::default() };
+    load_obj_text(text, std::path::Path::new("gen.obj"), &o).unwrap().stats.crease_edges
+}
+
+#[test]
+fn a_low_poly_lens_without_normals_is_smooth_by_the_small_face_angle() {
+    let lens = low_poly_lens_obj();
+    assert_eq!(crease_count(&lens, 60.0), 0);
+    // The rule before, one 30° crease angle: three rings of creases.
+    assert_eq!(crease_count(&lens, 0.0), 72);
+}
+
+#[test]
+fn the_box_and_the_capped_cylinder_stay_hard_under_the_small_face_angle() {
+    assert_eq!(crease_count(&box_obj(), 60.0), 12);
+    assert_eq!(crease_count(&box_obj(), 0.0), 12);
+    let cyl = cylinder_obj(32);
+    let before = crease_count(&cyl, 0.0);
+    assert_eq!(crease_count(&cyl, 60.0), before);
+    assert_eq!(before, 64);
+}
+
+#[test]
+fn corpus_bunny_lowres_is_smooth_and_regr01_keeps_its_creases() {
+    let Some(corpus) = common::corpus() else { return };
+    let creases = |path: &str, small: f32| {
+        let o = LoadOptions { small_face_crease_angle_deg: small, ..Default::default() };
+        phongrt::scene::load_obj(&corpus.join(path), &o).unwrap().stats.crease_edges
+    };
+    // bunny_lowres: 461 creases of 1353 edges before, 147 (as a 60° crease angle gives).
+    assert_eq!(creases("bunny_lowres/bunny.obj", 0.0), 461);
+    assert_eq!(creases("bunny_lowres/bunny.obj", 60.0), 147);
+    // regr01's walls and roofs are large faces: they keep the 30° crease angle (4 rafter edges
+    // of small faces turn smooth), where a 45° crease angle makes 1775 and streaks the roofs.
+    assert_eq!(creases("regr01/regr01.obj", 0.0), 1797);
+    assert_eq!(creases("regr01/regr01.obj", 60.0), 1793);
+}

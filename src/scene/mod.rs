@@ -349,6 +349,12 @@ pub struct LoadOptions {
     /// Where normals are computed: neighbouring faces whose normals differ by more than this
     /// (degrees) get separate vertex normals (a crease).
     pub crease_angle_deg: f32,
+    /// Where normals are computed and the file has no smoothing groups, neighbouring faces that
+    /// are both small (longest side at most [`SMALL_FACE_FRACTION`] of the mesh's bounding-box
+    /// diagonal) also join up to this angle (degrees), so a low-poly organic model is smooth
+    /// while the large faces of a building keep the crease angle; 0 turns it off (the rule
+    /// before: one crease angle for every face).
+    pub small_face_crease_angle_deg: f32,
     /// Welding tolerance, relative to the bounding-box diagonal.
     pub weld_tolerance: f32,
     /// Normals at one position within this angle (radians) are the same normal, so the edges
@@ -368,6 +374,7 @@ impl Default for LoadOptions {
     fn default() -> Self {
         LoadOptions {
             crease_angle_deg: 30.0,
+            small_face_crease_angle_deg: SMALL_FACE_CREASE_DEG,
             weld_tolerance: 1e-6,
             normal_tolerance_rad: crate::mesh::NORMAL_TOLERANCE,
             drop_duplicate_faces: true,
@@ -944,6 +951,69 @@ fn drop_duplicate_triangles(tris: &mut Vec<Tri>, stats: &mut LoadStats) {
     stats.duplicates_dropped += dup.iter().filter(|&&d| d).count();
 }
 
+/// The default [`LoadOptions::small_face_crease_angle_deg`]: small faces join up to 60°.
+pub const SMALL_FACE_CREASE_DEG: f32 = 60.0;
+
+/// A face is small, for [`LoadOptions::small_face_crease_angle_deg`], when its longest side is
+/// at most this fraction of its mesh's bounding-box diagonal.
+pub const SMALL_FACE_FRACTION: f32 = 0.2;
+
+/// Which neighbouring faces share computed normals: the same non-zero smoothing group where
+/// the mesh has any, else face normals within the crease angle, or within the wider small-face
+/// angle when both faces are small.
+struct JoinRule<'a> {
+    tris: &'a [Tri],
+    face_normals: &'a [Vec3],
+    any_smoothing: bool,
+    cos_crease: f32,
+    cos_small: f32,
+    /// Per triangle: its longest side is at most [`SMALL_FACE_FRACTION`] of the diagonal.
+    small: Vec<bool>,
+}
+
+impl<'a> JoinRule<'a> {
+    fn new(tris: &'a [Tri], positions: &[Vec3], face_normals: &'a [Vec3], opts: &LoadOptions) -> Self {
+        let cos_of = |deg: f32| deg.clamp(0.0, 180.0).to_radians().cos();
+        // Compute the mesh's diagonal, then which faces are small against it.
+        let at = |pid: u32| positions[pid as usize];
+        let (mut lo, mut hi) = (Vec3::splat(f32::INFINITY), Vec3::splat(f32::NEG_INFINITY));
+        for p in tris.iter().flat_map(|t| t.pid.map(at)) {
+            (lo, hi) = (lo.min(p), hi.max(p));
+        }
+        let limit = SMALL_FACE_FRACTION * (hi - lo).length();
+        let small = tris
+            .iter()
+            .map(|t| {
+                let [p, q, r] = t.pid.map(at);
+                p.distance(q).max(q.distance(r)).max(r.distance(p)) <= limit
+            })
+            .collect();
+        JoinRule {
+            tris,
+            face_normals,
+            any_smoothing: tris.iter().any(|t| t.smoothing.is_some()),
+            cos_crease: cos_of(opts.crease_angle_deg),
+            cos_small: if opts.small_face_crease_angle_deg > 0.0 {
+                cos_of(opts.small_face_crease_angle_deg)
+            } else {
+                f32::INFINITY
+            },
+            small,
+        }
+    }
+
+    /// Whether faces `ti` and `tj`, which share an edge, share its normals.
+    fn joins(&self, ti: usize, tj: usize) -> bool {
+        if self.any_smoothing {
+            // Smoothing groups: share normals within a non-zero group; group 0 is flat.
+            let (si, sj) = (&self.tris[ti].smoothing, &self.tris[tj].smoothing);
+            return matches!((si, sj), (Some(a), Some(b)) if *a != 0 && a == b);
+        }
+        let d = self.face_normals[ti].dot(self.face_normals[tj]);
+        d >= self.cos_crease || (d >= self.cos_small && self.small[ti] && self.small[tj])
+    }
+}
+
 /// Computed vertex normals per triangle corner: around each position, the angle-weighted mean
 /// of the face normals of the corners that join (same smoothing group, or within the crease
 /// angle), bit for bit the same for every corner of a cluster.
@@ -965,18 +1035,9 @@ impl ComputedNormals {
                 incident.entry(pid).or_default().push((ti, k));
             }
         }
-        // Which faces join: smoothing groups if the mesh has any, else the crease angle.
-        let cos_crease = opts.crease_angle_deg.clamp(0.0, 180.0).to_radians().cos();
-        let any_smoothing = tris.iter().any(|t| t.smoothing.is_some());
-        let joins = |ti: usize, tj: usize| -> bool {
-            let (si, sj) = (&tris[ti].smoothing, &tris[tj].smoothing);
-            if any_smoothing {
-                // Smoothing groups: share normals within a non-zero group; group 0 is flat.
-                matches!((si, sj), (Some(a), Some(b)) if *a != 0 && a == b)
-            } else {
-                face_normals[ti].dot(face_normals[tj]) >= cos_crease
-            }
-        };
+        // Which faces join: smoothing groups if the mesh has any, else the crease angles.
+        let rule = JoinRule::new(tris, positions, &face_normals, opts);
+        let joins = |ti: usize, tj: usize| rule.joins(ti, tj);
         // Around each position, one normal per cluster of joined corners.
         let mut corner: HashMap<(usize, usize), Vec3> = HashMap::new();
         for (&pid, list) in &incident {

@@ -169,6 +169,12 @@ pub struct LoadArgs {
     /// Where a mesh has no normals, edges sharper than this (degrees) stay sharp.
     #[arg(long, default_value_t = 30.0)]
     pub crease_angle: f32,
+    /// Where a mesh has no normals, neighbouring small faces (longest side at most a fifth of
+    /// the object's size) stay smooth up to this angle (degrees), so low-poly models are smooth
+    /// and buildings' large faces keep --crease-angle; 0 uses --crease-angle everywhere (the
+    /// rule before).
+    #[arg(long, default_value_t = phongrt::scene::SMALL_FACE_CREASE_DEG)]
+    pub small_face_crease_angle: f32,
     /// Normals at one position within this angle (radians) count as one, so the edge between
     /// them is smooth; 0 compares them bit for bit (the rule before, -0 and 0 distinct).
     #[arg(long, default_value_t = phongrt::mesh::NORMAL_TOLERANCE)]

@@ -24,6 +24,10 @@ pub(crate) fn load_options(args: &LoadArgs, crease_angle: f32) -> anyhow::Result
     if !(0.0..=180.0).contains(&crease_angle) {
         usage!("--crease-angle {crease_angle} is not in [0, 180] degrees");
     }
+    let small = args.small_face_crease_angle;
+    if !(0.0..=180.0).contains(&small) {
+        usage!("--small-face-crease-angle {small} is not in [0, 180] degrees");
+    }
     let tol = args.normal_tolerance;
     if !(0.0..=0.1).contains(&tol) {
         usage!("--normal-tolerance {tol} is not in [0, 0.1] radians");
@@ -33,6 +37,7 @@ pub(crate) fn load_options(args: &LoadArgs, crease_angle: f32) -> anyhow::Result
     }
     Ok(LoadOptions {
         crease_angle_deg: crease_angle,
+        small_face_crease_angle_deg: small,
         normal_tolerance_rad: tol,
         drop_duplicate_faces: !args.keep_duplicate_faces,
         bulge_limit: args.bulge_limit,
