@@ -681,3 +681,22 @@ fn quiet_render_prints_nothing() {
     assert!(o.status.success());
     assert_eq!(String::from_utf8_lossy(&o.stderr), "", "--compare -q");
 }
+
+// `phongrt info m.obj | head` panicked ("failed printing to stdout: Broken pipe") when the reader
+// went away first: now it ends quietly with the status a SIGPIPE gives (128 + 13).
+#[test]
+fn info_to_a_closed_pipe_ends_quietly_without_a_panic() {
+    use std::process::{Command as Std, Stdio};
+    let mut child = Std::new(common::target_dir().join("phongrt"))
+        .args(["info", "scenes/sphere_lowpoly.obj"])
+        .current_dir(common::root())
+        .stdout(Stdio::piped())
+        .stderr(Stdio::piped())
+        .spawn()
+        .unwrap();
+    drop(child.stdout.take()); // the reader is gone before phongrt has loaded the file
+    let out = child.wait_with_output().unwrap();
+    let err = String::from_utf8_lossy(&out.stderr);
+    assert!(!err.contains("panicked"), "{err}");
+    assert_eq!(out.status.code(), Some(141), "{err}");
+}

@@ -106,7 +106,7 @@ fn write_report(out: &Path, rows: &[BenchRow], profiles: &[Profile]) -> anyhow::
     std::fs::write(out.join("bench.md"), &md)?;
     save_plot(&plot(rows)?, &out.join("bench.png"))?;
     save_plot(&plot_scaling(rows)?, &out.join("bench-scaling.png"))?;
-    print!("{md}");
+    crate::print_stdout(&md)?;
     eprintln!("phongrt: wrote {}/bench.csv, bench.md, bench.png, bench-scaling.png", out.display());
     Ok(())
 }

@@ -52,42 +52,53 @@ pub(crate) fn info_cmd(args: InfoArgs) -> anyhow::Result<()> {
                 "normals": format!("{:?}", m.normals_source),
             })).collect::<Vec<_>>(),
         });
-        println!("{}", serde_json::to_string_pretty(&doc)?);
-        return Ok(());
+        return crate::print_stdout(&(serde_json::to_string_pretty(&doc)? + "\n"));
     }
-    println!("file: {}", args.scene.display());
-    println!("embree: {major}.{minor}.{patch} (headers {}), ISA {}", embree::header_version(), device.isa());
-    println!("objects: {}", s.meshes.len());
-    println!("materials: {}", s.materials.len());
-    println!("vertices: {}", st.vertices);
-    println!("triangles: {}", st.triangles);
-    println!("normals: {} from file, {} computed", st.normals_from_file, st.normals_computed);
-    println!(
+    // The description is put together, then written at once (a closed stdout is an error, not a
+    // panic).
+    let mut out = String::new();
+    macro_rules! say {
+        ($($t:tt)*) => {{
+            out.push_str(&format!($($t)*));
+            out.push('\n');
+        }};
+    }
+    say!("file: {}", args.scene.display());
+    say!("embree: {major}.{minor}.{patch} (headers {}), ISA {}", embree::header_version(), device.isa());
+    say!("objects: {}", s.meshes.len());
+    say!("materials: {}", s.materials.len());
+    say!("vertices: {}", st.vertices);
+    say!("triangles: {}", st.triangles);
+    say!("normals: {} from file, {} computed", st.normals_from_file, st.normals_computed);
+    say!(
         "edges: {} smooth, {} crease, {} border, {} non-manifold",
-        st.smooth_edges, st.crease_edges, st.border_edges, st.nonmanifold_edges
+        st.smooth_edges,
+        st.crease_edges,
+        st.border_edges,
+        st.nonmanifold_edges
     );
     if st.straightened_edges > 0 {
-        println!(
+        say!(
             "straightened: {} smooth edges that would bulge more than {} × the height of a triangle beside them (--bulge-limit)",
             st.straightened_edges, args.load.bulge_limit
         );
     }
     if st.degenerate_skipped > 0 {
-        println!("skipped: {} degenerate triangles", st.degenerate_skipped);
+        say!("skipped: {} degenerate triangles", st.degenerate_skipped);
     }
     if st.duplicates_dropped > 0 {
-        println!("dropped: {} duplicate triangles", st.duplicates_dropped);
+        say!("dropped: {} duplicate triangles", st.duplicates_dropped);
     }
-    println!("bounds: [{:.6}, {:.6}, {:.6}] .. [{:.6}, {:.6}, {:.6}]", lo.x, lo.y, lo.z, hi.x, hi.y, hi.z);
+    say!("bounds: [{:.6}, {:.6}, {:.6}] .. [{:.6}, {:.6}, {:.6}]", lo.x, lo.y, lo.z, hi.x, hi.y, hi.z);
     if let Some((ratio, mesh, tri)) = largest_deviation(&s) {
-        println!(
+        say!(
             "deviation: largest patch offset from its flat triangle {ratio:.4} × the triangle's width (smallest altitude; alpha {}, object {:?}, triangle {tri})",
             phongrt::phong::DEFAULT_ALPHA,
             s.meshes[mesh].name
         );
     }
     for m in &s.meshes {
-        println!(
+        say!(
             "  object {:?}: {} vertices, {} triangles, normals {:?}",
             m.name,
             m.positions.len(),
@@ -95,5 +106,5 @@ pub(crate) fn info_cmd(args: InfoArgs) -> anyhow::Result<()> {
             m.normals_source
         );
     }
-    Ok(())
+    crate::print_stdout(&out)
 }

@@ -65,6 +65,15 @@ fn main() -> ExitCode {
     };
     match run(cli) {
         Ok(()) => ExitCode::SUCCESS,
+        // The reader of our stdout went away (`phongrt info m.obj | head`): end quietly with
+        // the status a SIGPIPE would give.
+        Err(e)
+            if e.chain().any(|c| {
+                c.downcast_ref::<std::io::Error>().is_some_and(|e| e.kind() == std::io::ErrorKind::BrokenPipe)
+            }) =>
+        {
+            ExitCode::from(128 + 13)
+        }
         Err(e) => {
             eprintln!("phongrt: error: {}", one_line(&e));
             if e.chain().any(|c| c.is::<Usage>()) {
@@ -130,24 +139,30 @@ fn run_command(cli: Cli) -> anyhow::Result<()> {
                 args.threshold,
                 args.margin,
             );
-            println!("{} steps, largest {:.1}/255, {} interior pixels", s.count, s.largest, s.interior);
-            Ok(())
+            print_stdout(&format!(
+                "{} steps, largest {:.1}/255, {} interior pixels\n",
+                s.count, s.largest, s.interior
+            ))
         }
         Command::Completions(args) => {
             use clap::CommandFactory;
             let mut out = Vec::new();
             clap_complete::generate(args.shell, &mut Cli::command(), "phongrt", &mut out);
-            let mut stdout = std::io::stdout().lock();
-            stdout.write_all(&out).and_then(|_| stdout.flush()).context("cannot write to stdout")
+            print_stdout(&String::from_utf8_lossy(&out))
         }
         Command::Accuracy(args) => {
             if args.rays == 0 {
                 usage!("--rays 0: must be at least 1");
             }
-            print!("{}", phongrt::phong::accuracy::report(args.rays, args.seed));
-            Ok(())
+            print_stdout(&phongrt::phong::accuracy::report(args.rays, args.seed).to_string())
         }
     }
+}
+
+/// Write `text` to stdout and flush it: a failure (a closed pipe, a full disk) is an error.
+pub(crate) fn print_stdout(text: &str) -> anyhow::Result<()> {
+    let mut stdout = std::io::stdout().lock();
+    stdout.write_all(text.as_bytes()).and_then(|_| stdout.flush()).context("cannot write to stdout")
 }
 
 /// Assemble tiles into one image (see [`phongrt_render::stitch`]).
