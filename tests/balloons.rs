@@ -119,8 +119,9 @@ fn smooth_low_poly_models_keep_every_edge_curved() {
 }
 
 #[test]
+#[ignore = "needs ../shared/corpus"]
 fn corpus_balloons_shrink_and_the_head_keeps_its_shape() {
-    let Some(corpus) = common::corpus() else { return };
+    let corpus = common::corpus_required();
     // (model, largest deviation allowed with the rule, straightened edges at most)
     for (rel, bound, most) in [
         ("regr01/regr01.obj", 0.5, 20),

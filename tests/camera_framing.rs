@@ -1,6 +1,6 @@
 //! The default camera on real models: the silhouette fills about 80% of the frame, the side
-//! facing the camera is the lit one, and the up axis and front are found (corpus models; each
-//! skips with a message when ../shared/corpus, or the folder $PHONGRT_CORPUS names, is absent).
+//! facing the camera is the lit one, and the up axis and front are found (corpus models; those
+//! are #[ignore = "needs ../shared/corpus"] and fail loudly without it; .ci/run runs them).
 
 use std::path::Path;
 
@@ -33,10 +33,11 @@ struct Measured {
 /// Render the hit mask and key-light facing of `rel` through its default camera.
 fn measure(rel: &str) -> Option<Measured> {
     let path = corpus().join(rel);
-    if !path.exists() {
-        eprintln!("skipped: {} not found (the corpus is not in this checkout)", path.display());
-        return None;
-    }
+    assert!(
+        path.exists(),
+        "{} not found: this test needs ../shared/corpus (or PHONGRT_CORPUS)",
+        path.display()
+    );
     let input = load_obj(&path, &LoadOptions::default()).unwrap();
     let (camera, det) = default_view(&input, None, 0.0, None, W as f32 / H as f32);
     let device = Device::new().unwrap();
@@ -80,6 +81,7 @@ fn check(rel: &str) -> Option<Measured> {
 }
 
 #[test]
+#[ignore = "needs ../shared/corpus"]
 fn wuson_is_seen_from_its_head_end_and_fills_the_frame() {
     if let Some(m) = check("wuson/WusonOBJ.obj") {
         assert_eq!((m.up, m.front), (Vec3::Y, -Vec3::Z));
@@ -88,6 +90,7 @@ fn wuson_is_seen_from_its_head_end_and_fills_the_frame() {
 }
 
 #[test]
+#[ignore = "needs ../shared/corpus"]
 fn spot_is_seen_from_its_head_end_and_fills_the_frame() {
     if let Some(m) = check("spot/spot.obj") {
         assert_eq!((m.up, m.front), (Vec3::Y, -Vec3::Z));
@@ -95,6 +98,7 @@ fn spot_is_seen_from_its_head_end_and_fills_the_frame() {
 }
 
 #[test]
+#[ignore = "needs ../shared/corpus"]
 fn mug_is_z_up_and_fills_the_frame() {
     if let Some(m) = check("mug/mug.obj") {
         assert_eq!(m.up, Vec3::Z);
@@ -103,6 +107,7 @@ fn mug_is_z_up_and_fills_the_frame() {
 }
 
 #[test]
+#[ignore = "needs ../shared/corpus"]
 fn regr01_is_z_up_and_fills_the_frame() {
     if let Some(m) = check("regr01/regr01.obj") {
         assert_eq!(m.up, Vec3::Z);
@@ -110,6 +115,7 @@ fn regr01_is_z_up_and_fills_the_frame() {
 }
 
 #[test]
+#[ignore = "needs ../shared/corpus"]
 fn concave_polygon_is_seen_face_on_and_lit() {
     if let Some(m) = check("concave_polygon/concave_polygon.obj") {
         // Face-on within the three-quarter angles: the view is far from edge-on.
@@ -119,6 +125,7 @@ fn concave_polygon_is_seen_face_on_and_lit() {
 }
 
 #[test]
+#[ignore = "needs ../shared/corpus"]
 fn duck_suzanne_teapot_and_head_fill_the_frame() {
     for rel in ["duck/duck.obj", "suzanne/suzanne.obj", "teapot/teapot.obj", "african_head/african_head.obj"]
     {
@@ -129,12 +136,10 @@ fn duck_suzanne_teapot_and_head_fill_the_frame() {
 }
 
 #[test]
+#[ignore = "needs ../shared/corpus"]
 fn orbit_turns_the_view_about_the_up_axis() {
     let path = corpus().join("mug/mug.obj");
-    if !path.exists() {
-        eprintln!("skipped: {} not found", path.display());
-        return;
-    }
+    assert!(path.exists(), "{} not found: this test needs ../shared/corpus", path.display());
     let input = load_obj(&path, &LoadOptions::default()).unwrap();
     let (a, _) = default_view(&input, None, 0.0, None, 1.0);
     let (b, _) = default_view(&input, None, 90.0, None, 1.0);
@@ -253,17 +258,21 @@ fn the_ground_is_large_enough_that_the_default_view_sees_no_far_edge() {
 }
 
 #[test]
-fn the_spider_shows_its_face_and_the_mug_its_handle() {
+#[ignore = "needs ../shared/corpus"]
+fn the_spider_shows_its_face() {
     let spider = corpus().join("spider/spider.obj");
-    if spider.exists() {
-        let input = load_obj(&spider, &LoadOptions::default()).unwrap();
-        let opts = DefaultViewOptions::default();
-        let (_, det) = default_view_with(&input, None, 0.0, None, 4.0 / 3.0, opts);
-        // Its objects "Kopf" (head) and "Auge" (eye) lie towards -x.
-        assert!(det.front.dot(-Vec3::X) > 0.95, "spider front {}", det.front);
-        let off = DefaultViewOptions { front_cues: false, ..opts };
-        assert_eq!(default_view_with(&input, None, 0.0, None, 4.0 / 3.0, off).1.front, Vec3::Z);
-    }
+    assert!(spider.exists(), "{} not found: this test needs ../shared/corpus", spider.display());
+    let input = load_obj(&spider, &LoadOptions::default()).unwrap();
+    let opts = DefaultViewOptions::default();
+    let (_, det) = default_view_with(&input, None, 0.0, None, 4.0 / 3.0, opts);
+    // Its objects "Kopf" (head) and "Auge" (eye) lie towards -x.
+    assert!(det.front.dot(-Vec3::X) > 0.95, "spider front {}", det.front);
+    let off = DefaultViewOptions { front_cues: false, ..opts };
+    assert_eq!(default_view_with(&input, None, 0.0, None, 4.0 / 3.0, off).1.front, Vec3::Z);
+}
+
+#[test]
+fn the_mug_shows_its_handle() {
     // The mug's handle sticks out towards +y: the front turns a quarter from it, and the camera
     // sees the handle 60 degrees off its line of sight, to the right.
     let input = load_obj(&root().join("scenes/mug/mug.obj"), &LoadOptions::default()).unwrap();

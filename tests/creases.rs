@@ -227,8 +227,9 @@ fn the_box_and_the_capped_cylinder_stay_hard_under_the_small_face_angle() {
 }
 
 #[test]
+#[ignore = "needs ../shared/corpus"]
 fn corpus_bunny_lowres_is_smooth_and_regr01_keeps_its_creases() {
-    let Some(corpus) = common::corpus() else { return };
+    let corpus = common::corpus_required();
     let creases = |path: &str, small: f32| {
         let o = LoadOptions { small_face_crease_angle_deg: small, ..Default::default() };
         phongrt::scene::load_obj(&corpus.join(path), &o).unwrap().stats.crease_edges
