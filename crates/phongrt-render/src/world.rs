@@ -837,75 +837,113 @@ impl World {
         rng: &mut Rng,
         traced: &[Option<f32>; PACKET_LIGHTS],
     ) -> Vec3 {
-        let (ray, sp) = (*ray, *sp);
-        let s = obj.surface;
+        let s = &obj.surface;
+        // Compute the direct light: diffuse, plus the highlight lobe only for glossy materials.
         let mut c = Vec3::ZERO;
-
-        // Direct light: diffuse, plus the highlight lobe only for glossy materials.
-        let glossy = s.glossy();
-        if lit(&s) {
-            let mut e = self.ambient;
-            if let Some(ao) = self.ambient_occlusion {
-                e *= self.ambient_visibility(&sp, ao, counts, rng);
-            }
-            if let Some(env) = &self.environment {
-                e += self.environment_light(&sp, env, counts, rng);
-            }
-            let mut kd = s.kd * (1.0 - s.transmission);
-            // The texture, only for textured objects.
-            if let Some((tex, uvs)) = &obj.texture {
-                if let Some(uv) = Object::texcoord(uvs, hit.prim_id, hit.u, hit.v) {
-                    counts.texture += 1;
-                    kd *= tex.sample(uv);
-                }
-            }
-            c += kd * e;
-            let v = -ray.dir.normalize_or_zero();
-            for (i, light) in self.lights.iter().enumerate() {
-                let traced = traced.get(i).copied().flatten();
-                if glossy {
-                    let mut spec = 0u64;
-                    c += self.irradiance(light, &sp, traced, counts, rng, |l| {
-                        spec += 1;
-                        kd + s.blinn_phong(sp.n, v, l)
-                    });
-                    counts.specular += spec;
-                } else {
-                    c += self.irradiance(light, &sp, traced, counts, rng, |_| kd);
-                }
-            }
+        if lit(s) {
+            c = self.direct_light(ray, hit, obj, sp, counts, rng, traced);
         }
-
         if depth >= self.max_depth {
             return c;
         }
+        // Compute the mirror reflection, only for materials that call for it.
         let d = ray.dir.normalize();
-        // Mirror reflection, only for materials that call for it.
         if s.reflects() {
             let r = d - 2.0 * d.dot(sp.n) * sp.n;
             counts.reflection += 1;
             let o = sp.offset_origin(r);
             c += s.mirror * self.radiance(Ray::new(o, r), depth + 1, counts, rng);
         }
-        // Refraction with the dielectric Fresnel reflection, only for transparent materials.
+        // Compute the refraction with its Fresnel reflection, only for transparent materials.
         if s.refracts() {
-            let eta = if sp.entering { 1.0 / s.ior } else { s.ior };
-            let n = sp.n;
-            let cos_i = (-d.dot(n)).clamp(0.0, 1.0);
-            let k = 1.0 - eta * eta * (1.0 - cos_i * cos_i);
-            let f = if k < 0.0 { 1.0 } else { fresnel_dielectric(cos_i, k.sqrt(), eta) };
-            if f > 0.0 {
-                let r = d + 2.0 * cos_i * n;
-                counts.reflection += 1;
-                let o = sp.offset_origin(r);
-                c += s.transmission * f * self.radiance(Ray::new(o, r), depth + 1, counts, rng);
+            c = self.add_refraction(c, d, s, sp, depth, counts, rng);
+        }
+        c
+    }
+
+    /// The light a lit surface reflects from the ambient light (occluded where asked), the
+    /// environment and each light, in that order (the order `rng` is drawn in), its diffuse
+    /// reflectance textured where the object has a texture.
+    #[allow(clippy::too_many_arguments)]
+    fn direct_light(
+        &self,
+        ray: &Ray,
+        hit: &Hit,
+        obj: &Object,
+        sp: &SurfacePoint,
+        counts: &mut RayCounts,
+        rng: &mut Rng,
+        traced: &[Option<f32>; PACKET_LIGHTS],
+    ) -> Vec3 {
+        let s = obj.surface;
+        // Compute the ambient and environment light.
+        let mut e = self.ambient;
+        if let Some(ao) = self.ambient_occlusion {
+            e *= self.ambient_visibility(sp, ao, counts, rng);
+        }
+        if let Some(env) = &self.environment {
+            e += self.environment_light(sp, env, counts, rng);
+        }
+        // Compute the diffuse reflectance, the texture only for textured objects.
+        let mut kd = s.kd * (1.0 - s.transmission);
+        if let Some((tex, uvs)) = &obj.texture {
+            if let Some(uv) = Object::texcoord(uvs, hit.prim_id, hit.u, hit.v) {
+                counts.texture += 1;
+                kd *= tex.sample(uv);
             }
-            if k >= 0.0 {
-                let dir = eta * d + (eta * cos_i - k.sqrt()) * n;
-                counts.refraction += 1;
-                let o = sp.offset_origin(dir);
-                c += s.transmission * (1.0 - f) * self.radiance(Ray::new(o, dir), depth + 1, counts, rng);
+        }
+        // Compute each light's reflected light, evaluating the highlight only where glossy.
+        let mut c = Vec3::ZERO;
+        c += kd * e;
+        let v = -ray.dir.normalize_or_zero();
+        for (i, light) in self.lights.iter().enumerate() {
+            let traced = traced.get(i).copied().flatten();
+            if s.glossy() {
+                let mut spec = 0u64;
+                c += self.irradiance(light, sp, traced, counts, rng, |l| {
+                    spec += 1;
+                    kd + s.blinn_phong(sp.n, v, l)
+                });
+                counts.specular += spec;
+            } else {
+                c += self.irradiance(light, sp, traced, counts, rng, |_| kd);
             }
+        }
+        c
+    }
+
+    /// `c` plus the light a transparent surface passes along the unit ray direction `d`: its
+    /// dielectric Fresnel reflection, then its refraction (none past total internal reflection),
+    /// each weighted by the transmission, added in that order.
+    #[allow(clippy::too_many_arguments)]
+    fn add_refraction(
+        &self,
+        mut c: Vec3,
+        d: Vec3,
+        s: &Surface,
+        sp: &SurfacePoint,
+        depth: u32,
+        counts: &mut RayCounts,
+        rng: &mut Rng,
+    ) -> Vec3 {
+        // Compute the relative index and the Fresnel reflectance.
+        let eta = if sp.entering { 1.0 / s.ior } else { s.ior };
+        let n = sp.n;
+        let cos_i = (-d.dot(n)).clamp(0.0, 1.0);
+        let k = 1.0 - eta * eta * (1.0 - cos_i * cos_i);
+        let f = if k < 0.0 { 1.0 } else { fresnel_dielectric(cos_i, k.sqrt(), eta) };
+        // Compute the reflected and the refracted ray's light.
+        if f > 0.0 {
+            let r = d + 2.0 * cos_i * n;
+            counts.reflection += 1;
+            let o = sp.offset_origin(r);
+            c += s.transmission * f * self.radiance(Ray::new(o, r), depth + 1, counts, rng);
+        }
+        if k >= 0.0 {
+            let dir = eta * d + (eta * cos_i - k.sqrt()) * n;
+            counts.refraction += 1;
+            let o = sp.offset_origin(dir);
+            c += s.transmission * (1.0 - f) * self.radiance(Ray::new(o, dir), depth + 1, counts, rng);
         }
         c
     }
