@@ -46,7 +46,7 @@ fn render_counts(scene: &Scene) -> (u64, usize, usize) {
         straight_creases: true,
     })
     .unwrap();
-    let (lo, hi) = world.bounds;
+    let (lo, hi) = world.bounds();
     let cam = Camera {
         eye: (lo + hi) * 0.5 + Vec3::new(1.5, 2.0, 3.0),
         ..Camera::frame_bounds(lo, hi, 96.0 / 72.0)
@@ -59,7 +59,7 @@ fn render_counts(scene: &Scene) -> (u64, usize, usize) {
         for x in 0..img.width {
             let c = img.get(x, y);
             bad += !c.is_finite() as usize;
-            covered += (c != world.background) as usize;
+            covered += (c != world.background()) as usize;
         }
     }
     (out.clamped_samples, bad, covered)

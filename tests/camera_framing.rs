@@ -52,9 +52,9 @@ fn measure(rel: &str) -> Option<Measured> {
     for y in 0..H {
         for x in 0..W {
             let ray = Ray::new(frame.eye, frame.direction(x as f32 + 0.5, y as f32 + 0.5, W, H));
-            let Some(hit) = world.scene.intersect1(ray) else { continue };
-            let obj = &world.objects[hit.geom_id as usize];
-            let sp = obj.surface_point(&hit, &ray, world.shading, world.terminator);
+            let Some(hit) = world.scene().intersect1(ray) else { continue };
+            let obj = &world.objects()[hit.geom_id as usize];
+            let sp = obj.surface_point(&hit, &ray, world.shading(), world.terminator());
             (x0, x1, y0, y1) = (x0.min(x), x1.max(x + 1), y0.min(y), y1.max(y + 1));
             hits += 1;
             if sp.n.dot(l) > 0.0 {
@@ -234,15 +234,13 @@ fn the_ground_is_large_enough_that_the_default_view_sees_no_far_edge() {
     for fit in [true, false] {
         let g = Ground { up: camera.up, ..Ground::default() };
         let radius = fit.then(|| g.radius_for_view(input.bounds(), &camera, w as f32 / h as f32));
-        let world = World::from_scene_with_ground(&device, &input, Some(Ground { radius, ..g }), |_, _| {
-            ObjectSettings::new(ObjectMode::Flat)
-        })
-        .unwrap();
+        let ground = Some(Ground { radius, ..g });
+        let world = World::builder(&device, &input).mode(ObjectMode::Flat).ground(ground).build().unwrap();
         let frame = camera.frame(w as f32 / h as f32).unwrap();
         let misses = (0..w)
             .filter(|&x| {
                 world
-                    .scene
+                    .scene()
                     .intersect1(Ray::new(frame.eye, frame.direction(x as f32 + 0.5, 0.5, w, h)))
                     .is_none()
             })

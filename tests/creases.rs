@@ -156,11 +156,11 @@ fn rendered_cylinder_shows_no_background_inside_its_silhouette() {
             straight_creases: straight,
         })
         .unwrap();
-        let (lo, hi) = world.bounds;
+        let (lo, hi) = world.bounds();
         let cam = Camera { eye: Vec3::new(0.0, 2.0, 3.5), ..Camera::frame_bounds(lo, hi, 1.0) };
         let s = RenderSettings { width: 300, height: 300, spp: 1, seed: 0, packets: true };
         let img = render(&world, &cam, &s).unwrap().image;
-        let bg = |x: u32, y: u32| img.get(x, y) == world.background;
+        let bg = |x: u32, y: u32| img.get(x, y) == world.background();
         // A crack is background with foreground on both sides (horizontally or vertically).
         let mut n = 0;
         for y in 1..img.height - 1 {

@@ -9,19 +9,19 @@ use phongrt::embree::Device;
 use phongrt::scene::{uv_sphere, Scene};
 use phongrt_render::texture::Texture;
 use phongrt_render::{
-    render, Camera, Environment, EnvironmentSource, ObjectMode, ObjectSettings, RenderSettings, Surface,
-    World,
+    render, Camera, Environment, EnvironmentSource, ObjectMode, RenderSettings, Surface, World,
 };
 
-fn world(device: &Device) -> World {
-    let mut w = World::from_scene(device, &Scene::from_mesh(uv_sphere(48, 24, 1.0)), |_, _| {
-        ObjectSettings::new(ObjectMode::Phong { alpha: 0.75 })
-    })
-    .unwrap();
-    w.lights.clear();
-    w.ambient = Vec3::ZERO;
-    w.objects[0].surface = Surface::diffuse(Vec3::splat(0.5));
-    w
+fn world(device: &Device, environment: Option<Environment>) -> World {
+    let scene = Scene::from_mesh(uv_sphere(48, 24, 1.0));
+    World::builder(device, &scene)
+        .mode(ObjectMode::Phong { alpha: 0.75 })
+        .lights([])
+        .ambient(Vec3::ZERO)
+        .surface("*", Surface::diffuse(Vec3::splat(0.5)))
+        .environment(environment)
+        .build()
+        .unwrap()
 }
 
 fn shot(w: &World) -> phongrt_render::RenderOutput {
@@ -33,11 +33,14 @@ fn shot(w: &World) -> phongrt_render::RenderOutput {
 #[test]
 fn a_constant_environment_lights_a_convex_diffuse_surface_by_kd_times_its_radiance() {
     let device = Device::new().unwrap();
-    let mut w = world(&device);
+    let w = world(&device, None);
     let dark = shot(&w);
     assert_eq!(dark.rays.environment, 0, "no environment asked for: no environment rays");
     assert!(!w.effects().to_string().contains("environment"));
-    w.environment = Some(Environment { source: EnvironmentSource::Constant(Vec3::splat(0.8)), samples: 16 });
+    let w = world(
+        &device,
+        Some(Environment { source: EnvironmentSource::Constant(Vec3::splat(0.8)), samples: 16 }),
+    );
     assert!(w.effects().to_string().contains("environment light (constant, 16 samples)"), "{}", w.effects());
     let lit = shot(&w);
     assert!(lit.rays.environment > 0, "{}", lit.rays);

@@ -304,7 +304,7 @@ fn render_checked(device: &Device, scene: &phongrt::scene::Scene, c: &mut Counts
                 continue;
             }
         };
-        let camera = Camera::frame_bounds(world.bounds.0, world.bounds.1, 1.0);
+        let camera = Camera::frame_bounds(world.bounds().0, world.bounds().1, 1.0);
         let settings = RenderSettings { width: 12, height: 12, spp: 1, seed: 0, packets: true };
         match render(&world, &camera, &settings) {
             Ok(out) => {

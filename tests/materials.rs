@@ -10,7 +10,7 @@ use phongrt::embree::Device;
 use phongrt::scene::{uv_sphere, Material, Scene};
 use phongrt_render::world::fresnel_dielectric;
 use phongrt_render::{
-    render, Camera, Ground, Light, ObjectMode, ObjectSettings, RenderSettings, Surface, World,
+    render, Camera, Ground, Light, ObjectMode, RenderSettings, Surface, World, WorldBuilder,
 };
 
 fn settings(w: u32) -> RenderSettings {
@@ -21,12 +21,16 @@ fn camera() -> Camera {
     Camera { eye: Vec3::new(0.0, 0.0, 4.0), look_at: Vec3::ZERO, up: Vec3::Y, fov_y_deg: 40.0 }
 }
 
-fn sphere_world(device: &Device, ground: Option<Ground>) -> World {
+/// The Phong unit sphere over `ground`, with `more` of the builder's settings.
+fn sphere_world(
+    device: &Device,
+    ground: Option<Ground>,
+    more: impl for<'a> FnOnce(WorldBuilder<'a>) -> WorldBuilder<'a>,
+) -> World {
     let scene = Scene::from_mesh(uv_sphere(48, 24, 1.0));
-    World::from_scene_with_ground(device, &scene, ground, |_, _| {
-        ObjectSettings::new(ObjectMode::Phong { alpha: 0.75 })
-    })
-    .unwrap()
+    more(World::builder(device, &scene).mode(ObjectMode::Phong { alpha: 0.75 }).ground(ground))
+        .build()
+        .unwrap()
 }
 
 fn glossy() -> Material {
@@ -36,12 +40,13 @@ fn glossy() -> Material {
 #[test]
 fn a_glossy_material_has_a_highlight_where_the_mirror_direction_meets_the_light() {
     let device = Device::new().unwrap();
-    let mut world = sphere_world(&device, None);
     // The light straight behind the camera: the highlight is at the image centre.
-    world.lights = vec![Light::Directional { direction: Vec3::Z, radiance: Vec3::ONE, shadows: false }];
+    let light = Light::Directional { direction: Vec3::Z, radiance: Vec3::ONE, shadows: false };
+    let world = sphere_world(&device, None, |b| b.lights([light]));
     let plain = render(&world, &camera(), &settings(64)).unwrap();
     assert_eq!(plain.rays.specular, 0, "a diffuse material evaluates no lobe");
-    world.objects[0].surface = Surface::from_material(&glossy());
+    let world =
+        sphere_world(&device, None, |b| b.lights([light]).surface("*", Surface::from_material(&glossy())));
     assert!(world.effects().to_string().contains("highlights (1 objects)"), "{}", world.effects());
     let shiny = render(&world, &camera(), &settings(64)).unwrap();
     assert!(shiny.rays.specular > 0 && shiny.rays.total() == plain.rays.total(), "{}", shiny.rays);
@@ -110,12 +115,14 @@ fn ground_under(world: &World) -> Vec3 {
 #[test]
 fn glass_casts_a_shadow_attenuated_by_its_transmission_and_opaque_one_a_full_shadow() {
     let device = Device::new().unwrap();
-    let mut world = sphere_world(&device, Some(Ground::default()));
-    world.ambient = Vec3::ZERO;
-    world.lights = vec![Light::Directional { direction: Vec3::Y, radiance: Vec3::ONE, shadows: true }];
+    let light = Light::Directional { direction: Vec3::Y, radiance: Vec3::ONE, shadows: true };
+    let world = sphere_world(&device, Some(Ground::default()), |b| b.ambient(Vec3::ZERO).lights([light]));
     let opaque = ground_under(&world);
     assert!(opaque.max_element() < 1e-6, "an opaque sphere's shadow is lit: {opaque}");
-    world.objects[0].surface = Surface { transmission: 0.8, ior: 1.5, ..Surface::diffuse(Vec3::ZERO) };
+    let glass = Surface { transmission: 0.8, ior: 1.5, ..Surface::diffuse(Vec3::ZERO) };
+    let world = sphere_world(&device, Some(Ground::default()), |b| {
+        b.ambient(Vec3::ZERO).lights([light]).surface("*", glass)
+    });
     let glass = ground_under(&world);
     // Through two surfaces of transmission 0.8: 0.64 of the ground's lit 0.6 (the camera is
     // outside the sphere, looking at the ground beside its foot: no refraction on the way).
@@ -126,15 +133,16 @@ fn glass_casts_a_shadow_attenuated_by_its_transmission_and_opaque_one_a_full_sha
 #[test]
 fn shadow_rays_pass_transmissive_surfaces_only_when_a_material_is_transmissive() {
     let device = Device::new().unwrap();
-    let mut world = sphere_world(&device, Some(Ground::default()));
-    world.lights = vec![Light::Directional { direction: Vec3::Y, radiance: Vec3::ONE, shadows: true }];
+    let light = Light::Directional { direction: Vec3::Y, radiance: Vec3::ONE, shadows: true };
+    let world = sphere_world(&device, Some(Ground::default()), |b| b.lights([light]));
     let cam = Camera { eye: Vec3::new(0.0, 1.0, 5.0), look_at: Vec3::new(0.0, -0.5, 0.0), ..camera() };
     let opaque = render(&world, &cam, &settings(48)).unwrap();
     assert_eq!((opaque.rays.refraction, opaque.rays.reflection), (0, 0));
     // One shadow ray per lit shading point: no pass-through loop for an opaque scene.
     let lit_points = opaque.rays.primary;
     assert!(opaque.rays.shadow <= lit_points, "{}", opaque.rays);
-    world.objects[0].surface = Surface { transmission: 0.8, ior: 1.5, ..Surface::diffuse(Vec3::ZERO) };
+    let glass = Surface { transmission: 0.8, ior: 1.5, ..Surface::diffuse(Vec3::ZERO) };
+    let world = sphere_world(&device, Some(Ground::default()), |b| b.lights([light]).surface("*", glass));
     let glass = render(&world, &cam, &settings(48)).unwrap();
     assert!(glass.rays.refraction > 0 && glass.rays.reflection > 0, "{}", glass.rays);
     let plan = world.effects().to_string();
@@ -144,15 +152,16 @@ fn shadow_rays_pass_transmissive_surfaces_only_when_a_material_is_transmissive()
 #[test]
 fn the_effects_plan_lists_an_area_light_once() {
     let device = Device::new().unwrap();
-    let mut world = sphere_world(&device, None);
-    world.lights = vec![Light::Sphere {
+    let area = Light::Sphere {
         center: Vec3::new(2.0, 3.0, 2.0),
         radius: 0.5,
         intensity: Vec3::splat(10.0),
         samples: 4,
-    }];
+    };
+    let world = sphere_world(&device, None, |b| b.lights([area]));
     assert_eq!(world.effects().to_string(), "effects: direct lighting, soft shadows (1 area lights)");
-    world.lights.push(Light::Directional { direction: Vec3::Y, radiance: Vec3::ONE, shadows: true });
+    let sun = Light::Directional { direction: Vec3::Y, radiance: Vec3::ONE, shadows: true };
+    let world = sphere_world(&device, None, |b| b.lights([area, sun]));
     assert_eq!(
         world.effects().to_string(),
         "effects: direct lighting, shadows (1 lights), soft shadows (1 area lights)"

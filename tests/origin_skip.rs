@@ -10,7 +10,7 @@ use phongrt::embree::Device;
 use phongrt::phong::convexity::audit;
 use phongrt::scene::{load_obj, LoadOptions};
 use phongrt_render::{
-    render, AmbientOcclusion, Camera, Light, ObjectMode, ObjectSettings, RenderSettings, Terminator, World,
+    default_lights, render, AmbientOcclusion, Camera, Light, ObjectMode, RenderSettings, Terminator, World,
 };
 
 /// The in-repo scenes of `ext` (in `scenes/` and one level below).
@@ -34,22 +34,18 @@ fn scenes(ext: &str) -> Vec<PathBuf> {
 /// occlusion, one ray at a time or in packets, under each terminator rule.
 fn render_audited(device: &Device, path: &Path) {
     let scene = load_obj(path, &LoadOptions::default()).unwrap();
-    let mut world =
-        World::from_scene(device, &scene, |_, _| ObjectSettings::new(ObjectMode::Phong { alpha: 1.0 }))
-            .unwrap();
     let (lo, hi) = scene.bounds();
     let r = (hi - lo).length();
-    world.lights.push(Light::Sphere {
-        center: hi + Vec3::splat(r),
-        radius: 0.1 * r,
-        intensity: Vec3::ONE,
-        samples: 2,
-    });
-    world.ambient_occlusion = Some(AmbientOcclusion { samples: 2, distance: r });
+    let area =
+        Light::Sphere { center: hi + Vec3::splat(r), radius: 0.1 * r, intensity: Vec3::ONE, samples: 2 };
+    let builder = World::builder(device, &scene)
+        .mode(ObjectMode::Phong { alpha: 1.0 })
+        .lights(default_lights().into_iter().chain([area]))
+        .ambient_occlusion(Some(AmbientOcclusion { samples: 2, distance: r }));
     let camera = Camera::frame_bounds(lo, hi, 1.0);
     let pool = phongrt_render::thread_pool(Some(2)).unwrap();
     for terminator in [Terminator::Lift, Terminator::Plain] {
-        world.terminator = terminator;
+        let world = builder.clone().terminator(terminator).build().unwrap();
         for packets in [true, false] {
             let s = RenderSettings { width: 24, height: 24, spp: 1, seed: 0, packets };
             pool.install(|| render(&world, &camera, &s))

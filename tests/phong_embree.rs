@@ -240,6 +240,6 @@ fn the_renderers_phong_objects_share_their_mesh_with_the_scene() {
         straight_creases: true,
     })
     .unwrap();
-    let pm = world.objects[0].phong.as_ref().expect("a Phong object keeps its mesh");
+    let pm = world.objects()[0].geometry.phong().expect("a Phong object keeps its mesh");
     assert_eq!(std::sync::Arc::strong_count(pm), 2, "object and Embree geometry share one mesh");
 }

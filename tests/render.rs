@@ -10,8 +10,8 @@ use phongrt::embree::Device;
 use phongrt::scene::{uv_sphere, Material, Scene};
 use phongrt_render::scene_file::SceneFile;
 use phongrt_render::{
-    render, render_extent, Camera, Light, ObjectMode, ObjectSettings, Progress, RenderExtent, RenderOutput,
-    RenderSettings, SurfaceMode, World,
+    default_lights, render, render_extent, Camera, Light, ObjectMode, ObjectSettings, Progress, RenderExtent,
+    RenderOutput, RenderSettings, SurfaceMode, World, WorldBuilder,
 };
 
 fn settings(w: u32) -> RenderSettings {
@@ -25,8 +25,19 @@ fn render_on(threads: usize, world: &World, camera: &Camera, s: &RenderSettings)
 }
 
 fn sphere_world(device: &Device, seg: u32, rings: u32, mode: ObjectMode) -> World {
-    World::from_scene(device, &Scene::from_mesh(uv_sphere(seg, rings, 1.0)), |_, _| ObjectSettings::new(mode))
-        .unwrap()
+    sphere_world_with(device, seg, rings, mode, |b| b)
+}
+
+/// As `sphere_world`, with `more` of the builder's settings.
+fn sphere_world_with(
+    device: &Device,
+    seg: u32,
+    rings: u32,
+    mode: ObjectMode,
+    more: impl for<'a> FnOnce(WorldBuilder<'a>) -> WorldBuilder<'a>,
+) -> World {
+    let scene = Scene::from_mesh(uv_sphere(seg, rings, 1.0));
+    more(World::builder(device, &scene).mode(mode)).build().unwrap()
 }
 
 fn camera() -> Camera {
@@ -36,7 +47,7 @@ fn camera() -> Camera {
 /// Pixels covered by the sphere (not background) and, per image row, the covered half-width.
 fn coverage(world: &World, w: u32) -> (usize, Vec<f32>) {
     let out = render(world, &camera(), &settings(w)).unwrap();
-    let bg = world.background;
+    let bg = world.background();
     let mut count = 0;
     let mut widths = vec![0.0; w as usize];
     for y in 0..w {
@@ -102,13 +113,19 @@ fn phong_silhouette_of_a_low_poly_sphere_is_rounder_than_flat() {
 #[test]
 fn effects_not_called_for_cost_zero_rays() {
     let device = Device::new().unwrap();
-    let mut world = sphere_world(&device, 24, 12, ObjectMode::Phong { alpha: 1.0 });
     // No shadow-casting light, no reflective or transparent material, no AO.
-    world.lights = vec![Light::Directional {
+    let light = |shadows| Light::Directional {
         direction: Vec3::new(0.3, 0.8, 0.5).normalize(),
         radiance: Vec3::ONE,
-        shadows: false,
-    }];
+        shadows,
+    };
+    let world_with = |lights: Vec<Light>, surface: Option<Material>| {
+        sphere_world_with(&device, 24, 12, ObjectMode::Phong { alpha: 1.0 }, |b| match surface {
+            Some(m) => b.lights(lights).surface("*", phongrt_render::Surface::from_material(&m)),
+            None => b.lights(lights),
+        })
+    };
+    let world = world_with(vec![light(false)], None);
     let plan = world.effects();
     assert!(
         plan.shadow_lights.is_empty()
@@ -122,11 +139,7 @@ fn effects_not_called_for_cost_zero_rays() {
     assert_eq!(out.rays.total(), out.rays.primary, "{}", out.rays);
 
     // A shadow-casting light: shadow rays, still no secondary rays.
-    world.lights = vec![Light::Directional {
-        direction: Vec3::new(0.3, 0.8, 0.5).normalize(),
-        radiance: Vec3::ONE,
-        shadows: true,
-    }];
+    let world = world_with(vec![light(true)], None);
     let out = render(&world, &camera(), &settings(64)).unwrap();
     assert!(
         out.rays.shadow > 0
@@ -137,39 +150,40 @@ fn effects_not_called_for_cost_zero_rays() {
     assert!(world.effects().to_string().contains("shadows (1 lights)"));
 
     // A mirror material: reflection rays appear, and only then.
-    world.objects[0].surface = phongrt_render::Surface::from_material(&Material {
-        illum: Some(3),
-        ks: Vec3::splat(0.5),
-        ..Material::default()
-    });
+    let mirror = Material { illum: Some(3), ks: Vec3::splat(0.5), ..Material::default() };
+    let world = world_with(vec![light(true)], Some(mirror));
     let out = render(&world, &camera(), &settings(64)).unwrap();
     assert!(out.rays.reflection > 0 && out.rays.refraction == 0);
     // Glass: refraction.
-    world.objects[0].surface =
-        phongrt_render::Surface::from_material(&Material { dissolve: 0.2, ni: 1.5, ..Material::default() });
+    let world =
+        world_with(vec![light(true)], Some(Material { dissolve: 0.2, ni: 1.5, ..Material::default() }));
     let out = render(&world, &camera(), &settings(64)).unwrap();
     // Glass refracts and, by Fresnel, reflects.
     assert!(out.rays.refraction > 0 && out.rays.reflection > 0);
     assert!(world.effects().to_string().contains("refraction (1 objects)"));
     // Area light: soft shadows.
-    world.lights = vec![Light::Sphere {
+    let area = Light::Sphere {
         center: Vec3::new(2.0, 3.0, 2.0),
         radius: 0.5,
         intensity: Vec3::splat(10.0),
         samples: 4,
-    }];
+    };
+    let glass = Material { dissolve: 0.2, ni: 1.5, ..Material::default() };
+    let world = world_with(vec![area], Some(glass));
     assert!(world.effects().to_string().contains("soft shadows"));
 }
 
 #[test]
 fn images_do_not_depend_on_thread_count() {
     let device = Device::new().unwrap();
-    let mut world = sphere_world(&device, 12, 6, ObjectMode::Phong { alpha: 1.0 });
-    world.lights.push(Light::Sphere {
+    let area = Light::Sphere {
         center: Vec3::new(-2.0, 3.0, 3.0),
         radius: 0.7,
         intensity: Vec3::splat(8.0),
         samples: 4,
+    };
+    let world = sphere_world_with(&device, 12, 6, ObjectMode::Phong { alpha: 1.0 }, |b| {
+        b.lights(default_lights().into_iter().chain([area]))
     });
     let s = RenderSettings { spp: 4, ..settings(96) };
     let a = render_on(1, &world, &camera(), &s);
@@ -234,7 +248,7 @@ fn no_background_inside_the_closed_bunny_at_slivers() {
         fov_y_deg: 1e-5,
     };
     let out = render(&world, &camera, &settings(256)).unwrap();
-    let background = out.image.pixels.iter().filter(|&&p| p == world.background).count();
+    let background = out.image.pixels.iter().filter(|&&p| p == world.background()).count();
     assert_eq!(background, 0, "{background} background pixels of {}", out.image.pixels.len());
 }
 

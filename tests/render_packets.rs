@@ -10,7 +10,7 @@ use glam::Vec3;
 use phongrt::embree::Device;
 use phongrt::scene::{load_obj, uv_sphere, LoadOptions, Material, Scene};
 use phongrt_render::{
-    render_extent, AmbientOcclusion, Camera, Ground, Light, ObjectMode, ObjectSettings, RenderExtent,
+    default_lights, render_extent, AmbientOcclusion, Camera, Ground, Light, ObjectMode, RenderExtent,
     RenderOutput, RenderSettings, Surface, Window, World,
 };
 
@@ -43,32 +43,32 @@ fn same_both_ways(
 
 /// A Phong sphere on a flat ground with a shadowing directional light, a shadowing point light,
 /// a light without shadows, a sphere light and ambient occlusion.
-fn busy_world(device: &Device) -> World {
-    let mut world = World::from_scene_with_ground(
-        device,
-        &Scene::from_mesh(uv_sphere(10, 5, 1.0)),
-        Some(Ground::default()),
-        |_, _| ObjectSettings::new(ObjectMode::Phong { alpha: 1.0 }),
-    )
-    .unwrap();
-    world.lights.push(Light::Point {
-        position: Vec3::new(1.5, 2.5, 2.0),
-        intensity: Vec3::splat(3.0),
-        shadows: true,
-    });
-    world.lights.push(Light::Directional {
-        direction: Vec3::new(0.8, 0.3, 0.2).normalize(),
-        radiance: Vec3::splat(0.3),
-        shadows: false,
-    });
-    world.lights.push(Light::Sphere {
-        center: Vec3::new(-2.0, 3.0, 1.0),
-        radius: 0.5,
-        intensity: Vec3::splat(4.0),
-        samples: 2,
-    });
-    world.ambient_occlusion = Some(AmbientOcclusion { samples: 2, distance: 0.7 });
-    world
+fn busy_world(device: &Device, surface: Option<Surface>) -> World {
+    let scene = Scene::from_mesh(uv_sphere(10, 5, 1.0));
+    let lights = [
+        Light::Point { position: Vec3::new(1.5, 2.5, 2.0), intensity: Vec3::splat(3.0), shadows: true },
+        Light::Directional {
+            direction: Vec3::new(0.8, 0.3, 0.2).normalize(),
+            radiance: Vec3::splat(0.3),
+            shadows: false,
+        },
+        Light::Sphere {
+            center: Vec3::new(-2.0, 3.0, 1.0),
+            radius: 0.5,
+            intensity: Vec3::splat(4.0),
+            samples: 2,
+        },
+    ];
+    let world = World::builder(device, &scene)
+        .mode(ObjectMode::Phong { alpha: 1.0 })
+        .ground(Some(Ground::default()))
+        .lights(default_lights().into_iter().chain(lights))
+        .ambient_occlusion(Some(AmbientOcclusion { samples: 2, distance: 0.7 }));
+    let world = match surface {
+        Some(s) => world.surface("*", s),
+        None => world,
+    };
+    world.build().unwrap()
 }
 
 fn camera() -> Camera {
@@ -78,23 +78,18 @@ fn camera() -> Camera {
 #[test]
 fn packets_give_the_single_ray_image_with_every_light_kind_and_effect() {
     let device = Device::new().unwrap();
-    let world = busy_world(&device);
+    let world = busy_world(&device, None);
     // Odd sizes: blocks at the right and bottom edges have lanes outside the frame.
     let out = same_both_ways(&world, &camera(), &settings(61, 47, 4, true), &RenderExtent::default(), 2);
     assert!(out.rays.shadow > 0 && out.rays.ambient_occlusion > 0 && out.rays.terminator > 0, "{}", out.rays);
     // A glossy mirror sphere: reflection rays, specular lobes; their shadows go one by one.
-    let mut world = world;
-    world.objects[0].surface = Surface::from_material(&Material {
-        illum: Some(3),
-        ks: Vec3::splat(0.4),
-        ns: 40.0,
-        ..Material::default()
-    });
+    let mirror = Material { illum: Some(3), ks: Vec3::splat(0.4), ns: 40.0, ..Material::default() };
+    let world = busy_world(&device, Some(Surface::from_material(&mirror)));
     let out = same_both_ways(&world, &camera(), &settings(40, 40, 1, true), &RenderExtent::default(), 1);
     assert!(out.rays.reflection > 0 && out.rays.specular > 0, "{}", out.rays);
     // Glass: shadow rays pass through transmissive surfaces, one ray per surface.
-    world.objects[0].surface =
-        Surface::from_material(&Material { dissolve: 0.3, ni: 1.5, ..Material::default() });
+    let glass = Material { dissolve: 0.3, ni: 1.5, ..Material::default() };
+    let world = busy_world(&device, Some(Surface::from_material(&glass)));
     let out = same_both_ways(&world, &camera(), &settings(40, 40, 1, true), &RenderExtent::default(), 2);
     assert!(out.rays.refraction > 0, "{}", out.rays);
 }
@@ -102,7 +97,7 @@ fn packets_give_the_single_ray_image_with_every_light_kind_and_effect() {
 #[test]
 fn packet_renders_of_a_crop_with_alpha_are_the_window_of_the_whole_frame() {
     let device = Device::new().unwrap();
-    let world = busy_world(&device);
+    let world = busy_world(&device, None);
     let s = settings(61, 47, 4, true);
     let alpha = RenderExtent { crop: None, alpha: true };
     let whole = same_both_ways(&world, &camera(), &s, &alpha, 2);
@@ -135,11 +130,9 @@ fn packets_give_the_single_ray_image_on_real_meshes_flat_and_phong() {
         }
         let scene = load_obj(&path, &LoadOptions::default()).unwrap();
         for mode in [ObjectMode::Flat, ObjectMode::Phong { alpha: 0.75 }] {
-            let world = World::from_scene_with_ground(&device, &scene, Some(Ground::default()), |_, _| {
-                ObjectSettings::new(mode)
-            })
-            .unwrap();
-            let (lo, hi) = world.bounds;
+            let world =
+                World::builder(&device, &scene).mode(mode).ground(Some(Ground::default())).build().unwrap();
+            let (lo, hi) = world.bounds();
             let camera = Camera::frame_bounds(lo, hi, 1.0);
             same_both_ways(&world, &camera, &settings(128, 128, 1, true), &RenderExtent::default(), 2);
         }
@@ -189,7 +182,7 @@ fn shade8_answers_each_shaded_lane_as_shade_does() {
     use phongrt::embree::{Ray, PACKET8};
     use phongrt_render::{RayCounts, Rng};
     let device = Device::new().unwrap();
-    let world = busy_world(&device);
+    let world = busy_world(&device, None);
     let frame = camera().frame(1.0).unwrap();
     for (trace, shade) in [(0xFF, 0xFF), (0xFF, 0x5A), (0x0F, 0xFF), (0x81, 0x01), (0xFF, 0x00)] {
         for by in (0..32).step_by(2) {

@@ -14,8 +14,8 @@ use phongrt::phong::{ShadingNormal, DEFAULT_ALPHA};
 use phongrt::scene::{load_obj, LoadOptions, Mesh, Scene};
 use phongrt_render::world::SurfacePoint;
 use phongrt_render::{
-    render, Camera, Ground, Light, ObjectMode, ObjectSettings, RayCounts, RenderSettings, Surface,
-    Terminator, World,
+    default_lights, render, Camera, Ground, Light, ObjectMode, ObjectSettings, RayCounts, RenderSettings,
+    Surface, Terminator, World, WorldBuilder,
 };
 
 const SIZE: u32 = 600;
@@ -47,22 +47,32 @@ impl Default for Setup {
 }
 
 fn world(device: &Device, scene: &Scene, s: &Setup) -> World {
-    let mut w = World::from_scene(device, scene, |_, _| ObjectSettings::new(s.mode)).unwrap();
-    w.shading = s.shading;
-    w.terminator = s.terminator;
+    world_with(device, scene, s, |b| b)
+}
+
+/// As `world`, with `more` of the builder's settings.
+fn world_with(
+    device: &Device,
+    scene: &Scene,
+    s: &Setup,
+    more: impl for<'a> FnOnce(WorldBuilder<'a>) -> WorldBuilder<'a>,
+) -> World {
+    let mut lights = default_lights();
     if !s.shadows {
-        for l in &mut w.lights {
+        for l in &mut lights {
             if let Light::Directional { shadows, .. } = l {
                 *shadows = false;
             }
         }
     }
-    w
+    let b =
+        World::builder(device, scene).mode(s.mode).shading(s.shading).terminator(s.terminator).lights(lights);
+    more(b).build().unwrap()
 }
 
 /// Render as the command line frames it, and count the steps.
 fn steps(world: &World) -> usize {
-    let camera = Camera::frame_bounds(world.bounds.0, world.bounds.1, 1.0);
+    let camera = Camera::frame_bounds(world.bounds().0, world.bounds().1, 1.0);
     let settings = RenderSettings { width: SIZE, height: SIZE, spp: 16, seed: 0, packets: true };
     let out = render(world, &camera, &settings).unwrap();
     let s = out.image.shading_steps(8.0, 3);
@@ -123,10 +133,10 @@ fn shadow_rays_from_the_true_surface_make_a_sawtooth_terminator() {
 
 /// The demo sphere as a partly diffuse mirror ball.
 fn mirror_ball(device: &Device, shading: ShadingNormal) -> World {
-    let mut w = world(device, &demo_sphere(), &Setup { shading, ..Setup::default() });
-    w.background = Vec3::new(0.3, 0.35, 0.45);
-    w.objects[0].surface = Surface { mirror: Vec3::splat(0.6), ..Surface::diffuse(Vec3::splat(0.4)) };
-    w
+    let mirror = Surface { mirror: Vec3::splat(0.6), ..Surface::diffuse(Vec3::splat(0.4)) };
+    world_with(device, &demo_sphere(), &Setup { shading, ..Setup::default() }, |b| {
+        b.background(Vec3::new(0.3, 0.35, 0.45)).surface("*", mirror)
+    })
 }
 
 #[test]
@@ -178,8 +188,8 @@ fn lift_is_taken_on_the_side_the_ray_came_from() {
     // Seen from below, the back of the sheet (its vertex normals point up), and lit from below at
     // the terminator: the lift must go down, towards the viewer, not up through the sheet.
     let ray = Ray::new(Vec3::new(0.6, -2.0, 0.1), Vec3::Y);
-    let hit = w.scene.intersect1(ray).expect("the sheet is hit from below");
-    let sp = w.objects[0].surface_point(&hit, &ray, w.shading, w.terminator);
+    let hit = w.scene().intersect1(ray).expect("the sheet is hit from below");
+    let sp = w.objects()[0].surface_point(&hit, &ray, w.shading(), w.terminator());
     assert!(!sp.entering && sp.n.y < 0.0, "{sp:?}");
     assert!(sp.lift.dot(sp.ng) > 0.0, "lift {} is not on the viewer's side of {}", sp.lift, sp.ng);
     let l = terminator_light(&sp, |_| true);
@@ -187,7 +197,7 @@ fn lift_is_taken_on_the_side_the_ray_came_from() {
     let o = w.shadow_origin(&sp, l, &mut counts);
     assert_eq!(counts.terminator, 1, "the lift was not tried");
     assert!((o - sp.p).dot(sp.ng) > 0.0, "origin {o} lifted through the sheet from {}", sp.p);
-    assert!(!w.scene.occluded1(Ray::new(o, l)), "a light at the terminator is blocked by the sheet itself");
+    assert!(!w.scene().occluded1(Ray::new(o, l)), "a light at the terminator is blocked by the sheet itself");
 }
 
 #[test]
@@ -202,8 +212,8 @@ fn lift_never_moves_an_origin_through_other_geometry() {
     let phong = || ObjectSettings::new(ObjectMode::Phong { alpha: DEFAULT_ALPHA });
     let alone = World::from_scene(&device, &Scene::from_mesh(dome.clone()), |_, _| phong()).unwrap();
     let ray = Ray::new(Vec3::new(0.9, 5.0, 0.0), -Vec3::Y);
-    let hit = alone.scene.intersect1(ray).expect("the dome is hit");
-    let sp = alone.objects[0].surface_point(&hit, &ray, alone.shading, alone.terminator);
+    let hit = alone.scene().intersect1(ray).expect("the dome is hit");
+    let sp = alone.objects()[0].surface_point(&hit, &ray, alone.shading(), alone.terminator());
     assert!(sp.lift.y > 0.0, "no lift at {}", sp.p);
     // A flat cover over that point, closer than the lift would reach (the dome's top pokes
     // through it).
@@ -235,7 +245,7 @@ fn lift_never_moves_an_origin_through_other_geometry() {
     let o = w.shadow_origin(&sp, l, &mut counts);
     assert_eq!(counts.terminator, 1, "the lift was not tried");
     assert!(o.y < top, "origin {o} lifted through the cover at y = {top}");
-    assert!(w.scene.occluded1(Ray::new(o, l)), "light leaks under the cover");
+    assert!(w.scene().occluded1(Ray::new(o, l)), "light leaks under the cover");
     // Without the cover the same lift is taken.
     let o = alone.shadow_origin(&sp, l, &mut counts);
     assert!(o.y > top, "origin {o} not lifted without the cover");
@@ -249,15 +259,12 @@ fn ground_plane_receives_the_cast_shadow_and_leaves_the_framing_alone() {
         ObjectSettings::new(ObjectMode::Phong { alpha: DEFAULT_ALPHA })
     })
     .unwrap();
-    let w = World::from_scene_with_ground(&device, &scene, Some(Ground::default()), |_, _| {
-        ObjectSettings::new(ObjectMode::Phong { alpha: DEFAULT_ALPHA })
-    })
-    .unwrap();
-    assert_eq!(w.bounds, plain.bounds, "the ground must not change the framing");
-    assert_eq!(w.objects.last().map(|o| o.name.as_str()), Some("ground"));
+    let w = World::builder(&device, &scene).ground(Some(Ground::default())).build().unwrap();
+    assert_eq!(w.bounds(), plain.bounds(), "the ground must not change the framing");
+    assert_eq!(w.objects().last().map(|o| o.name.as_str()), Some("ground"));
     // The key light comes from (-0.5, 0.7, 0.6): the shadow falls towards +x, -z of the sphere.
-    let lo = w.bounds.0.y;
-    let l = match w.lights[0] {
+    let lo = w.bounds().0.y;
+    let l = match w.lights()[0] {
         Light::Directional { direction, .. } => direction,
         _ => unreachable!(),
     };
@@ -277,7 +284,7 @@ fn ground_plane_receives_the_cast_shadow_and_leaves_the_framing_alone() {
 fn shading_queries_at_degenerate_points_return_none_not_nan() {
     let device = Device::new().unwrap();
     let w = world(&device, &demo_sphere(), &Setup::default());
-    let pm = w.objects[0].phong.as_ref().unwrap();
+    let pm = w.objects()[0].geometry.phong().unwrap();
     let d = Vec3::new(0.0, 0.0, -1.0);
     for rule in ShadingNormal::ALL {
         assert!(pm.shading_normal_with(0, f32::NAN, 0.2, d, rule).is_none());
@@ -345,18 +352,18 @@ fn shadow_rays_leave_an_exactly_planar_phong_patch() {
     let tri =
         Mesh::from_triangles("tri", vec![Vec3::ZERO, Vec3::X, Vec3::Y], vec![Vec3::Z; 3], vec![[0, 1, 2]]);
     let w = world(&device, &Scene::from_mesh(tri), &Setup::default());
-    let camera = Camera::frame_bounds(w.bounds.0, w.bounds.1, 1.0);
+    let camera = Camera::frame_bounds(w.bounds().0, w.bounds().1, 1.0);
     let frame = camera.frame(1.0).unwrap();
     let l = Vec3::new(-0.5, 0.7, 0.6).normalize();
     let (mut hits, mut blocked) = (0, 0);
     for y in 0..200 {
         for x in 0..200 {
             let ray = Ray::new(frame.eye, frame.direction(x as f32 + 0.5, y as f32 + 0.5, 200, 200));
-            let Some(h) = w.scene.intersect1(ray) else { continue };
+            let Some(h) = w.scene().intersect1(ray) else { continue };
             hits += 1;
-            let sp = w.objects[0].surface_point(&h, &ray, w.shading, w.terminator);
+            let sp = w.objects()[0].surface_point(&h, &ray, w.shading(), w.terminator());
             let o = w.shadow_origin(&sp, l, &mut RayCounts::default());
-            blocked += w.scene.occluded1(Ray::new(o, l)) as usize;
+            blocked += w.scene().occluded1(Ray::new(o, l)) as usize;
         }
     }
     assert!(hits > 5000, "{hits} hits");

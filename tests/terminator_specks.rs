@@ -9,7 +9,7 @@ use glam::Vec3;
 use phongrt::embree::{Device, Ray};
 use phongrt::phong::DEFAULT_ALPHA;
 use phongrt::scene::{load_obj, uv_sphere, LoadOptions, Mesh, Scene};
-use phongrt_render::{ObjectMode, ObjectSettings, RayCounts, Terminator, World};
+use phongrt_render::{ObjectMode, RayCounts, Terminator, World};
 
 fn demo_sphere() -> Scene {
     let path = Path::new(env!("CARGO_MANIFEST_DIR")).join("scenes/sphere_lowpoly.obj");
@@ -17,12 +17,11 @@ fn demo_sphere() -> Scene {
 }
 
 fn phong_world(device: &Device, scene: &Scene, terminator: Terminator) -> World {
-    let mut w = World::from_scene(device, scene, |_, _| {
-        ObjectSettings::new(ObjectMode::Phong { alpha: DEFAULT_ALPHA })
-    })
-    .unwrap();
-    w.terminator = terminator;
-    w
+    World::builder(device, scene)
+        .mode(ObjectMode::Phong { alpha: DEFAULT_ALPHA })
+        .terminator(terminator)
+        .build()
+        .unwrap()
 }
 
 /// `n` directions spread over the unit sphere (a Fibonacci lattice).
@@ -52,11 +51,11 @@ fn blocked_lit_points(
     let mut counts = RayCounts::default();
     for d in directions(n) {
         let ray = Ray::new(center + 10.0 * d, -d);
-        let Some(hit) = view.scene.intersect1(ray) else { continue };
+        let Some(hit) = view.scene().intersect1(ray) else { continue };
         if hit.geom_id != 0 {
             continue;
         }
-        let sp = view.objects[0].surface_point(&hit, &ray, view.shading, view.terminator);
+        let sp = view.objects()[0].surface_point(&hit, &ray, view.shading(), view.terminator());
         // Only the unit sphere about `center` (its Phong surface bulges up to 2% out), not a
         // second one in the same mesh.
         if sp.n.dot(l) <= min_cos || sp.n.dot(l).is_nan() || (sp.p - center).length() > 1.1 {
@@ -71,7 +70,7 @@ fn blocked_lit_points(
 
 /// The default key light.
 fn key_light(w: &World) -> Vec3 {
-    match w.lights[0] {
+    match w.lights()[0] {
         phongrt_render::Light::Directional { direction, .. } => direction,
         _ => unreachable!("the default light is directional"),
     }
@@ -118,7 +117,7 @@ fn a_mesh_shadows_itself_across_a_real_gap() {
     let l = Vec3::new(0.3, 1.0, 0.2).normalize();
     let w = phong_world(&device, &Scene::from_mesh(merged(&s, &s, l * 2.25)), Terminator::Lift);
     let view = phong_world(&device, &Scene::from_mesh(s.clone()), Terminator::Lift);
-    let bound = w.objects[0].phong.as_ref().unwrap().bump_bound(0).unwrap();
+    let bound = w.objects()[0].geometry.phong().unwrap().bump_bound(0).unwrap();
     println!("bump bound (height, reach) of a patch: {bound:?}");
     assert!(bound.0 < 0.25, "the bound {bound:?} spans the gap: the test proves nothing");
     // The lower sphere's points facing the upper one (their n·l > 0.9) are all blocked.

@@ -65,11 +65,12 @@ fn png_2x2() -> Vec<u8> {
 fn render_quad(obj: &Path) -> (phongrt_render::RenderOutput, World) {
     let scene = load_obj(obj, &LoadOptions::default()).unwrap();
     let device = Device::new().unwrap();
-    let mut world =
-        World::from_scene(&device, &scene, |_, _| ObjectSettings::new(ObjectMode::Phong { alpha: 0.75 }))
-            .unwrap();
-    world.ambient = Vec3::ZERO;
-    world.lights = vec![Light::Directional { direction: Vec3::Z, radiance: Vec3::ONE, shadows: false }];
+    let world = World::builder(&device, &scene)
+        .mode(ObjectMode::Phong { alpha: 0.75 })
+        .ambient(Vec3::ZERO)
+        .lights([Light::Directional { direction: Vec3::Z, radiance: Vec3::ONE, shadows: false }])
+        .build()
+        .unwrap();
     let cam = Camera { eye: Vec3::new(0.0, 0.0, 3.0), look_at: Vec3::ZERO, up: Vec3::Y, fov_y_deg: 30.0 };
     let s = RenderSettings { width: 32, height: 32, spp: 1, seed: 0, packets: true };
     (render(&world, &cam, &s).unwrap(), world)
@@ -80,7 +81,7 @@ fn a_textured_quad_shows_the_texture_through_a_backslash_path() {
     let dir = tempfile::tempdir().unwrap();
     let obj = write_quad(dir.path(), Some(&png_2x2()), "");
     let (out, world) = render_quad(&obj);
-    assert!(world.warnings.is_empty(), "{:?}", world.warnings);
+    assert!(world.warnings().is_empty(), "{:?}", world.warnings());
     assert!(world.effects().to_string().contains("textures (1 objects)"));
     assert!(out.rays.texture > 0, "{}", out.rays);
     // At the texel centres (u = 0.25 at pixel 6, u = 0.75 at pixel 25, within 0.0125): red, and
@@ -107,8 +108,8 @@ fn a_missing_or_undecodable_texture_warns_and_renders_the_flat_colour() {
     let dir = tempfile::tempdir().unwrap();
     let obj = write_quad(dir.path(), Some(b"not a png at all"), "");
     let (out, world) = render_quad(&obj);
-    assert_eq!(world.warnings.len(), 1, "{:?}", world.warnings);
-    assert!(world.warnings[0].contains("tex.png: cannot decode texture"), "{:?}", world.warnings);
+    assert_eq!(world.warnings().len(), 1, "{:?}", world.warnings());
+    assert!(world.warnings()[0].contains("tex.png: cannot decode texture"), "{:?}", world.warnings());
     assert_eq!(out.rays.texture, 0);
     assert!((out.image.get(16, 16) - Vec3::ONE).length() < 1e-3);
 }
@@ -151,7 +152,7 @@ fn the_spiders_backslash_jpeg_textures_load() {
     assert!(!scene.warnings.iter().any(|w| w.contains("not found")), "{:?}", scene.warnings);
     let device = Device::new().unwrap();
     let world = World::from_scene(&device, &scene, |_, _| ObjectSettings::new(ObjectMode::Flat)).unwrap();
-    assert!(world.warnings.is_empty(), "{:?}", world.warnings);
-    let textured = world.objects.iter().filter(|o| o.texture.is_some()).count();
-    assert_eq!(textured, world.objects.len(), "every spider part has a `.\\x.jpg` texture");
+    assert!(world.warnings().is_empty(), "{:?}", world.warnings());
+    let textured = world.objects().iter().filter(|o| o.texture.is_some()).count();
+    assert_eq!(textured, world.objects().len(), "every spider part has a `.\\x.jpg` texture");
 }

@@ -13,7 +13,7 @@ use std::path::Path;
 use glam::Vec3;
 use phongrt::embree::{Device, Ray};
 use phongrt::scene::{load_obj, LoadOptions, Scene};
-use phongrt_render::{Camera, ObjectMode, ObjectSettings, World};
+use phongrt_render::{Camera, ObjectMode, World};
 
 const SIZE: u32 = 400;
 
@@ -24,7 +24,7 @@ fn coverage(world: &World, camera: &Camera) -> usize {
     for y in 0..SIZE {
         for x in 0..SIZE {
             let d = frame.direction(x as f32 + 0.5, y as f32 + 0.5, SIZE, SIZE);
-            n += world.scene.intersect1(Ray::new(frame.eye, d)).is_some() as usize;
+            n += world.scene().intersect1(Ray::new(frame.eye, d)).is_some() as usize;
         }
     }
     n
@@ -33,8 +33,8 @@ fn coverage(world: &World, camera: &Camera) -> usize {
 /// The largest distance of any surface point (sampled on a 64×64 grid per patch) from `center`.
 fn largest_radius(world: &World, center: Vec3) -> f32 {
     let mut r: f32 = 0.0;
-    for o in &world.objects {
-        let Some(pm) = &o.phong else { continue };
+    for o in world.objects() {
+        let Some(pm) = o.geometry.phong() else { continue };
         for prim in 0..o.indices.len() as u32 {
             for i in 0..=64 {
                 for j in 0..=64 - i {
@@ -64,7 +64,7 @@ fn main() -> anyhow::Result<()> {
             .map(|p| (*p - center).length())
             .fold(0.0f32, f32::max);
         let camera = Camera::frame_bounds(lo, hi, 1.0);
-        let flat = World::from_scene(&device, &scene, |_, _| ObjectSettings::new(ObjectMode::Flat))?;
+        let flat = World::builder(&device, &scene).mode(ObjectMode::Flat).build()?;
         let flat_px = coverage(&flat, &camera);
         let name =
             Path::new(&arg).file_stem().map(|s| s.to_string_lossy().into_owned()).unwrap_or(arg.clone());
@@ -80,8 +80,7 @@ fn main() -> anyhow::Result<()> {
             disc_area as f64 / flat_px as f64
         );
         for alpha in [0.5, 0.75, 1.0] {
-            let w =
-                World::from_scene(&device, &scene, |_, _| ObjectSettings::new(ObjectMode::Phong { alpha }))?;
+            let w = World::builder(&device, &scene).mode(ObjectMode::Phong { alpha }).build()?;
             let r = largest_radius(&w, center) / corner_radius;
             let px = coverage(&w, &camera);
             println!("| {name} | {alpha} | {r:.4} | {:.4} |", px as f64 / flat_px as f64);

@@ -15,9 +15,7 @@ use phongrt::embree::Device;
 use phongrt::scene::{self, LoadOptions};
 use phongrt_render::render_record::{Digest, RenderRecord};
 use phongrt_render::scene_file::{self, LightSection, SceneFile};
-use phongrt_render::{
-    self as render, AmbientOcclusion, Camera, Light, ObjectMode, ObjectSettings, RenderSettings, World,
-};
+use phongrt_render::{self as render, Camera, Light, ObjectMode, ObjectSettings, RenderSettings, World};
 
 /// Stage times of one run, in seconds.
 #[derive(Clone, Copy, Debug, Default)]
@@ -71,14 +69,8 @@ impl ModeRules {
         if let Some(mode) = forced {
             return ObjectSettings { mode, straight_creases };
         }
-        let mut mode = self.default;
-        for o in self.file_objects.iter().filter(|o| o.name == "*" || o.name == mesh.name) {
-            match (o.mode, o.alpha) {
-                (Some(m), a) => mode = m.with_alpha(a.unwrap_or(phongrt::phong::DEFAULT_ALPHA)),
-                (None, Some(a)) => mode = ObjectMode::Phong { alpha: a },
-                (None, None) => {}
-            }
-        }
+        let matching = self.file_objects.iter().filter(|o| o.name == "*" || o.name == mesh.name);
+        let mut mode = matching.fold(self.default, |m, o| o.mode_over(m));
         for (name, m) in &self.overrides {
             if name == "*" || *name == mesh.name {
                 mode = *m;
@@ -259,46 +251,38 @@ impl RenderJob {
     }
 
     /// The world to render: every object in its mode (or all in `forced`), the key light
-    /// following the camera unless the scene file places lights, and the scene file's settings.
+    /// following the camera unless the scene file places lights, and the scene file's settings
+    /// (the command line's shading, terminator and ground over them).
     pub(crate) fn world(&self, device: &Device, forced: Option<ObjectMode>) -> anyhow::Result<World> {
+        // Compute the builder: the key light, the scene file over it, the resolved choices over both.
+        let key_light = Light::Directional {
+            direction: self.camera.key_light_direction(),
+            radiance: Vec3::splat(0.85),
+            shadows: true,
+        };
+        let mut builder = World::builder(device, &self.input).lights([key_light]);
+        if let Some(sf) = &self.source.file {
+            let dir = self.source.file_path.parent().unwrap_or(Path::new("."));
+            builder = builder.scene_file(sf, dir, self.camera.up)?;
+        }
+        let builder = builder
+            .settings(|_, mesh| self.modes.settings(forced, mesh))
+            .ground(self.ground)
+            .shading(self.shading)
+            .terminator(self.terminator);
+        // Build it, and name its warnings once.
         let what = match forced {
             Some(ObjectMode::Flat) => "building the flat scene",
             _ => "building the scene",
         };
         let building = Stage::start(what.to_string(), self.progress);
-        let world = World::from_scene_with_ground(device, &self.input, self.ground, |_, mesh| {
-            self.modes.settings(forced, mesh)
-        });
+        let world = builder.build();
         drop(building);
-        let mut world = world?;
-        world.shading = self.shading;
-        world.terminator = self.terminator;
+        let world = world?;
         if forced.is_none() {
-            for w in &world.warnings {
+            for w in world.warnings() {
                 eprintln!("phongrt: warning: {w}");
             }
-        }
-        world.lights = vec![Light::Directional {
-            direction: self.camera.key_light_direction(),
-            radiance: Vec3::splat(0.85),
-            shadows: true,
-        }];
-        let Some(sf) = &self.source.file else {
-            return Ok(world);
-        };
-        apply_scene_file(&mut world, sf);
-        if let Some(e) = &sf.environment {
-            let source = match (&e.color, &e.map) {
-                (Some(c), _) => render::EnvironmentSource::Constant(Vec3::from(*c)),
-                (None, Some(m)) => {
-                    let path = self.source.file_path.parent().unwrap_or(Path::new(".")).join(m);
-                    let texture = render::Environment::load_map(&path).map_err(anyhow::Error::msg)?;
-                    let up = self.camera.up.normalize_or_zero();
-                    render::EnvironmentSource::Map { texture: std::sync::Arc::new(texture), up }
-                }
-                (None, None) => bail!("environment: give color or map"),
-            };
-            world.environment = Some(render::Environment { source, samples: e.samples.unwrap_or(16) });
         }
         Ok(world)
     }
@@ -390,62 +374,4 @@ pub(crate) fn resolve_camera(
         bail!("camera: {p} ({src})");
     }
     Ok(camera)
-}
-
-pub(crate) fn apply_scene_file(world: &mut World, sf: &SceneFile) {
-    if let Some(b) = sf.render.background {
-        world.background = Vec3::from(b);
-    }
-    if let Some(a) = sf.render.ambient {
-        world.ambient = Vec3::from(a);
-    }
-    if let Some(d) = sf.render.max_depth {
-        world.max_depth = d;
-    }
-    if !sf.lights.is_empty() {
-        world.lights = sf
-            .lights
-            .iter()
-            .map(|l| match *l {
-                LightSection::Directional { direction, radiance, shadows } => Light::Directional {
-                    direction: Vec3::from(direction).normalize(),
-                    radiance: Vec3::from(radiance),
-                    shadows,
-                },
-                LightSection::Point { position, intensity, shadows } => {
-                    Light::Point { position: Vec3::from(position), intensity: Vec3::from(intensity), shadows }
-                }
-                LightSection::Sphere { center, radius, intensity, samples } => Light::Sphere {
-                    center: Vec3::from(center),
-                    radius,
-                    intensity: Vec3::from(intensity),
-                    samples,
-                },
-            })
-            .collect();
-    }
-    world.ambient_occlusion =
-        sf.ambient_occlusion.map(|a| AmbientOcclusion { samples: a.samples, distance: a.distance });
-    for o in &sf.objects {
-        for obj in world.objects.iter_mut().filter(|x| !x.is_ground && (o.name == "*" || x.name == o.name)) {
-            if let Some(kd) = o.kd {
-                obj.surface.kd = Vec3::from(kd);
-            }
-            if let Some(m) = o.mirror {
-                obj.surface.mirror = Vec3::from(m);
-            }
-            if let Some(t) = o.transmission {
-                obj.surface.transmission = t;
-            }
-            if let Some(n) = o.ior {
-                obj.surface.ior = n;
-            }
-            if let Some(k) = o.specular {
-                obj.surface.specular = Vec3::from(k);
-            }
-            if let Some(n) = o.shininess {
-                obj.surface.shininess = n;
-            }
-        }
-    }
 }

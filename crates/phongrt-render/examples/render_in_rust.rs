@@ -9,8 +9,8 @@ use std::path::Path;
 use phongrt::embree::Device;
 use phongrt::scene::{uv_sphere, Scene};
 use phongrt_render::{
-    render_extent, thread_pool, Camera, ObjectMode, ObjectSettings, Progress, RenderExtent, RenderOutput,
-    RenderSettings, World,
+    render_extent, thread_pool, Camera, ObjectMode, Progress, RenderExtent, RenderOutput, RenderSettings,
+    World,
 };
 
 /// Build the world, render it and write `out` (a .png or .exr path).
@@ -19,11 +19,11 @@ pub fn run(out: &Path) -> Result<RenderOutput, Box<dyn std::error::Error>> {
     let device = Device::new()?;
     let scene = Scene::from_mesh(uv_sphere(12, 6, 1.0));
     let mode = ObjectMode::Phong { alpha: phongrt::phong::DEFAULT_ALPHA };
-    let world = World::from_scene(&device, &scene, |_, _| ObjectSettings::new(mode))?;
+    let world = World::builder(&device, &scene).mode(mode).build()?;
 
     // Compute the view and render on our own pool, printing the progress now and then.
     let settings = RenderSettings { width: 320, height: 240, spp: 4, ..RenderSettings::default() };
-    let (lo, hi) = world.bounds;
+    let (lo, hi) = world.bounds();
     let camera = Camera::frame_bounds(lo, hi, settings.width as f32 / settings.height as f32);
     let pool = thread_pool(None)?;
     let progress = |p: Progress| eprintln!("{:.0}% done", 100.0 * p.fraction());

@@ -26,8 +26,8 @@ use rayon::prelude::*;
 pub use camera::{detect_up, Camera, CameraFrame, CameraProblem, UpDetection, ViewSpec};
 pub use image_out::{linear_to_srgb, Image, Window};
 pub use world::{
-    AmbientOcclusion, Effects, Environment, EnvironmentSource, Ground, Light, ObjectMode, ObjectSettings,
-    Rng, Surface, SurfaceMode, Terminator, World,
+    default_lights, AmbientOcclusion, Effects, Environment, EnvironmentSource, Geometry, Ground, Light,
+    ObjectMode, ObjectSettings, Rng, Surface, SurfaceMode, SurfaceOverride, Terminator, World, WorldBuilder,
 };
 
 pub use cost::{estimate, CostEstimate};
@@ -87,6 +87,9 @@ pub enum RenderError {
     /// Zero render threads.
     #[error("threads: 0 is not a thread count (at least 1)")]
     ZeroThreads,
+    /// The environment map cannot be used: the message names the file and what is wrong.
+    #[error("{0}")]
+    Environment(String),
     /// The ground plane's up direction or height is zero or not finite.
     #[error("ground: the up direction or height is zero or not finite")]
     Ground,

@@ -34,7 +34,7 @@ use serde::Deserialize;
 
 use phongrt::scene::ReadFailure;
 
-use super::world::SurfaceMode;
+use super::world::{ObjectMode, SurfaceMode, SurfaceOverride};
 
 /// The most a scene file may hold (16 MiB).
 pub const MAX_SCENE_FILE_BYTES: u64 = 16 << 20;
@@ -197,6 +197,30 @@ pub struct ObjectSection {
     pub specular: Option<[f32; 3]>,
     /// Highlight exponent (as MTL `Ns`), >= 0.
     pub shininess: Option<f32>,
+}
+
+impl ObjectSection {
+    /// The mode this entry gives an object that was in `mode`: its `mode` at its `alpha` (the
+    /// default alpha without one), Phong at its `alpha` if it gives only that, else `mode`.
+    pub fn mode_over(&self, mode: ObjectMode) -> ObjectMode {
+        match (self.mode, self.alpha) {
+            (Some(m), a) => m.with_alpha(a.unwrap_or(phongrt::phong::DEFAULT_ALPHA)),
+            (None, Some(a)) => ObjectMode::Phong { alpha: a },
+            (None, None) => mode,
+        }
+    }
+
+    /// The material values this entry overrides.
+    pub fn surface_override(&self) -> SurfaceOverride {
+        SurfaceOverride {
+            kd: self.kd.map(Vec3::from),
+            mirror: self.mirror.map(Vec3::from),
+            transmission: self.transmission,
+            ior: self.ior,
+            specular: self.specular.map(Vec3::from),
+            shininess: self.shininess,
+        }
+    }
 }
 
 #[derive(Debug, Deserialize, Clone, Copy, PartialEq)]

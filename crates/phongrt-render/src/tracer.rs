@@ -239,7 +239,7 @@ impl Tracer<'_> {
                     });
                     let mut shade = inside;
                     if self.alpha {
-                        let cover = self.world.scene.intersect8_rays(&rays, trace, true);
+                        let cover = self.world.scene().intersect8_rays(&rays, trace, true);
                         for (k, c) in cover.iter().enumerate().filter(|(k, _)| inside & (1 << k) != 0) {
                             work.counts.coverage += 1;
                             match c {
@@ -306,7 +306,7 @@ impl Tracer<'_> {
         let ray = self.camera_ray(x, y, s);
         if self.alpha {
             counts.coverage += 1;
-            self.world.scene.intersect1(ray)?;
+            self.world.scene().intersect1(ray)?;
         }
         let mut rng = self.sample_rng(x, y, s);
         Some(self.world.shade(ray, counts, &mut rng))

@@ -6,11 +6,13 @@ use std::path::Path;
 
 use glam::{Vec2, Vec3};
 
+mod builder;
+
+pub use builder::{SurfaceOverride, WorldBuilder};
+
 use super::texture::Texture;
-use super::{RayCounts, RenderError};
-use phongrt::embree::{
-    CommittedScene, Device, GeometryOptions, Hit, PhongMesh, Ray, RayOrigin, Scene, PACKET8,
-};
+use super::RayCounts;
+use phongrt::embree::{CommittedScene, Device, Hit, PhongMesh, Ray, RayOrigin, PACKET8};
 use phongrt::phong::ShadingNormal;
 use phongrt::phong::{Real, V3};
 use phongrt::rng::SplitMix;
@@ -443,19 +445,42 @@ impl std::fmt::Display for Effects {
 /// One object as the shader sees it.
 #[derive(Clone, Debug)]
 pub struct Object {
+    /// The object's name in the OBJ ("ground" for the ground plane).
     pub name: String,
-    pub mode: ObjectMode,
+    /// How its surface is made, with the Phong patches for a Phong object.
+    pub geometry: Geometry,
+    /// Vertex normals, positions and triangles (vertex indices), as loaded.
     pub normals: Vec<Vec3>,
     pub positions: Vec<Vec3>,
     pub indices: Vec<[u32; 3]>,
+    /// What the surface does to light.
     pub surface: Surface,
-    /// The patches, for Phong objects (shared with the Embree geometry: one copy).
-    pub phong: Option<std::sync::Arc<PhongMesh>>,
     /// The ground plane (not a scene object: `[[object]] name = "*"` leaves it alone).
     pub is_ground: bool,
     /// The `map_Kd` texture (multiplying `kd`, as MTL defines it), with the corners' `vt` per
     /// triangle; `None` without a usable texture or texture coordinates.
     pub texture: Option<TextureBinding>,
+}
+
+/// How an object's surface is made: the one home of its mode, so a Phong object always has its
+/// patches.
+#[derive(Clone, Debug)]
+pub enum Geometry {
+    /// Embree's native triangles with interpolated shading normals.
+    Flat,
+    /// Phong tessellation ray traced directly as an Embree user geometry: the patches, shared with
+    /// the Embree geometry (one copy).
+    Phong(std::sync::Arc<PhongMesh>),
+}
+
+impl Geometry {
+    /// The Phong patches, for a Phong object.
+    pub fn phong(&self) -> Option<&std::sync::Arc<PhongMesh>> {
+        match self {
+            Geometry::Flat => None,
+            Geometry::Phong(pm) => Some(pm),
+        }
+    }
 }
 
 /// A texture shared between objects, with one object's corner texture coordinates per triangle.
@@ -488,25 +513,23 @@ impl ObjectSettings {
     }
 }
 
-/// Objects in one committed Embree scene, indexed by geomID, and the lights.
+/// Objects in one committed Embree scene, indexed by geomID, the lights, and the integrator's
+/// settings. Built by a [`WorldBuilder`] (see [`World::builder`]) and immutable afterwards: read
+/// through its accessors.
 pub struct World {
-    pub device: Device,
-    pub scene: CommittedScene,
-    pub objects: Vec<Object>,
-    pub lights: Vec<Light>,
-    pub ambient: Vec3,
-    pub background: Vec3,
-    pub bounds: (Vec3, Vec3),
-    pub ambient_occlusion: Option<AmbientOcclusion>,
-    pub max_depth: u32,
-    /// The shading-normal rule of Phong objects (flat ones interpolate).
-    pub shading: ShadingNormal,
-    /// The terminator rule of Phong objects (flat ones keep the classic faceted terminator).
-    pub terminator: Terminator,
-    /// One-line warnings from building the world (materials out of range, ...).
-    pub warnings: Vec<String>,
-    /// Environment light, only when the scene asks for it.
-    pub environment: Option<Environment>,
+    device: Device,
+    scene: CommittedScene,
+    objects: Vec<Object>,
+    lights: Vec<Light>,
+    ambient: Vec3,
+    background: Vec3,
+    bounds: (Vec3, Vec3),
+    ambient_occlusion: Option<AmbientOcclusion>,
+    max_depth: u32,
+    shading: ShadingNormal,
+    terminator: Terminator,
+    warnings: Vec<String>,
+    environment: Option<Environment>,
 }
 
 /// The default key light: from the upper left behind the camera, casting shadows.
@@ -519,149 +542,70 @@ pub fn default_lights() -> Vec<Light> {
 }
 
 impl World {
-    /// Build a world from a loaded scene; `settings(i)` chooses the mode of mesh `i`.
-    pub fn from_scene(
-        device: &Device,
-        input: &sc::Scene,
-        settings: impl Fn(usize, &sc::Mesh) -> ObjectSettings,
-    ) -> Result<World, RenderError> {
-        Self::from_scene_with_ground(device, input, None, settings)
+    /// The Embree device the world's scene lives on.
+    pub fn device(&self) -> &Device {
+        &self.device
     }
 
-    /// As [`World::from_scene`], with a ground plane under the scene's bounds (the last object,
-    /// named "ground"; the bounds and so the camera's framing leave it out).
-    pub fn from_scene_with_ground(
-        device: &Device,
-        input: &sc::Scene,
-        ground: Option<Ground>,
-        settings: impl Fn(usize, &sc::Mesh) -> ObjectSettings,
-    ) -> Result<World, RenderError> {
-        let mut scene = Scene::new(device)?;
-        let mut objects = Vec::with_capacity(input.meshes.len());
-        let mut warnings = sc::FoldedWarnings::default();
-        type Loaded = Result<std::sync::Arc<Texture>, String>;
-        let mut textures: Vec<(std::path::PathBuf, Loaded)> = Vec::new();
-        for (i, mesh) in input.meshes.iter().enumerate() {
-            let s = settings(i, mesh);
-            let mut phong = None;
-            let id = match s.mode {
-                ObjectMode::Flat => scene
-                    .attach_triangles(&mesh.positions, &mesh.indices, GeometryOptions::default())
-                    .map_err(|source| RenderError::Object { name: mesh.name.clone(), source })?,
-                ObjectMode::Phong { alpha } => {
-                    let straight = mesh.straight_edges();
-                    let straight =
-                        (s.straight_creases && straight.len() == mesh.indices.len()).then_some(straight);
-                    let pm = PhongMesh::with_straight_edges(
-                        &mesh.positions,
-                        &mesh.normals,
-                        &mesh.indices,
-                        alpha,
-                        straight.as_deref(),
-                    )
-                    .map_err(|source| RenderError::PhongMesh { name: mesh.name.clone(), source })?;
-                    let pm = std::sync::Arc::new(pm);
-                    phong = Some(pm.clone());
-                    scene
-                        .attach_phong(pm, GeometryOptions::default())
-                        .map_err(|source| RenderError::Object { name: mesh.name.clone(), source })?
-                }
-            };
-            // geomIDs are handed out densely from 0 in attach order on a fresh scene.
-            if id as usize != objects.len() {
-                return Err(RenderError::UnexpectedGeomId(id));
-            }
-            let surface = match mesh.material.and_then(|m| input.materials.get(m)) {
-                Some(m) => {
-                    let (s, w) = Surface::from_material_checked(m, &input.path);
-                    for w in w {
-                        warnings.push("material values clamped", w);
-                    }
-                    s
-                }
-                None => Surface::diffuse(Vec3::splat(0.7)),
-            };
-            // The diffuse texture, loaded once per file, where the mesh has texture coordinates.
-            let mut texture = None;
-            let tex_path =
-                mesh.material.and_then(|m| input.materials.get(m)).and_then(|m| m.diffuse_texture.clone());
-            if let Some(path) = tex_path.filter(|p| p.exists()) {
-                if mesh.corner_uvs.is_empty() {
-                    let w = format!(
-                        "{}: object {:?} has a texture ({}) but no `vt` coordinates; using the flat Kd colour",
-                        input.path.display(),
-                        mesh.name,
-                        path.display()
-                    );
-                    warnings.push("textures without `vt` coordinates", w);
-                } else {
-                    let loaded = match textures.iter().find(|(p, _)| *p == path) {
-                        Some((_, t)) => t.clone(),
-                        None => {
-                            let t = Texture::load(&path).map(std::sync::Arc::new);
-                            if let Err(e) = &t {
-                                warnings.push(
-                                    "textures that do not decode",
-                                    format!("{e}; using the flat Kd colour"),
-                                );
-                            }
-                            textures.push((path.clone(), t.clone()));
-                            t
-                        }
-                    };
-                    texture = loaded.ok().map(|t| (t, mesh.corner_uvs.clone()));
-                }
-            }
-            objects.push(Object {
-                name: mesh.name.clone(),
-                mode: s.mode,
-                normals: mesh.normals.clone(),
-                positions: mesh.positions.clone(),
-                indices: mesh.indices.clone(),
-                surface,
-                phong,
-                is_ground: false,
-                texture,
-            });
-        }
-        if let Some(g) = ground {
-            let (positions, indices): (Vec<Vec3>, Vec<[u32; 3]>) =
-                g.triangles(input.bounds()).ok_or(RenderError::Ground)?;
-            let id = scene
-                .attach_triangles(&positions, &indices, GeometryOptions::default())
-                .map_err(|source| RenderError::Object { name: "ground".into(), source })?;
-            if id as usize != objects.len() {
-                return Err(RenderError::UnexpectedGeomId(id));
-            }
-            objects.push(Object {
-                name: "ground".into(),
-                mode: ObjectMode::Flat,
-                normals: vec![g.up.normalize(); positions.len()],
-                positions,
-                indices,
-                surface: Surface::diffuse(g.kd),
-                phong: None,
-                is_ground: true,
-                texture: None,
-            });
-        }
-        Ok(World {
-            device: device.clone(),
-            scene: scene.commit()?,
-            objects,
-            lights: default_lights(),
-            ambient: Vec3::splat(0.12),
-            background: Vec3::new(0.02, 0.02, 0.03),
-            bounds: input.bounds(),
-            ambient_occlusion: None,
-            max_depth: 6,
-            shading: ShadingNormal::default(),
-            terminator: Terminator::default(),
-            warnings: warnings.into_lines().collect(),
-            environment: None,
-        })
+    /// The committed Embree scene: object `i` is geometry `i`.
+    pub fn scene(&self) -> &CommittedScene {
+        &self.scene
     }
 
+    /// The objects, indexed by geomID (the ground, if any, last).
+    pub fn objects(&self) -> &[Object] {
+        &self.objects
+    }
+
+    /// The lights.
+    pub fn lights(&self) -> &[Light] {
+        &self.lights
+    }
+
+    /// The ambient light.
+    pub fn ambient(&self) -> Vec3 {
+        self.ambient
+    }
+
+    /// The radiance of rays that leave the scene when there is no environment.
+    pub fn background(&self) -> Vec3 {
+        self.background
+    }
+
+    /// The bounds of the scene's meshes (without the ground): what the camera frames.
+    pub fn bounds(&self) -> (Vec3, Vec3) {
+        self.bounds
+    }
+
+    /// Ambient occlusion, if asked for.
+    pub fn ambient_occlusion(&self) -> Option<AmbientOcclusion> {
+        self.ambient_occlusion
+    }
+
+    /// The maximum depth of reflection and refraction rays.
+    pub fn max_depth(&self) -> u32 {
+        self.max_depth
+    }
+
+    /// The shading-normal rule of Phong objects (flat ones interpolate).
+    pub fn shading(&self) -> ShadingNormal {
+        self.shading
+    }
+
+    /// The terminator rule of Phong objects (flat ones keep the classic faceted terminator).
+    pub fn terminator(&self) -> Terminator {
+        self.terminator
+    }
+
+    /// One-line warnings from building the world (materials out of range, textures, ...).
+    pub fn warnings(&self) -> &[String] {
+        &self.warnings
+    }
+
+    /// Environment light, only when the scene asks for it.
+    pub fn environment(&self) -> Option<&Environment> {
+        self.environment.as_ref()
+    }
     /// The effects this world calls for: nothing more is ever simulated.
     pub fn effects(&self) -> Effects {
         let pick = |f: fn(&Surface) -> bool| {
@@ -1377,24 +1321,20 @@ impl Object {
         terminator: Terminator,
     ) -> SurfacePoint {
         let ng_raw = hit.ng.try_normalize().unwrap_or(-ray.dir.normalize_or_zero());
-        let (p, p_error, n_shade) = match self.mode {
-            ObjectMode::Flat => {
+        let (p, p_error, n_shade) = match &self.geometry {
+            Geometry::Flat => {
                 let (p, err) = self.flat_point(hit.prim_id, hit.u, hit.v).unwrap_or_else(|| {
                     let p = ray.at(hit.t);
                     (p, gamma(7) * (ray.org.abs() + (hit.t * ray.dir).abs()))
                 });
                 (p, err, self.interpolated_normal(hit.prim_id, hit.u, hit.v).unwrap_or(ng_raw))
             }
-            ObjectMode::Phong { .. } => {
-                let pm = self.phong.as_ref();
-                let (p, err) =
-                    pm.and_then(|m| m.surface_point(hit.prim_id, hit.u, hit.v)).unwrap_or_else(|| {
-                        let p = ray.at(hit.t);
-                        (p, gamma(7) * (ray.org.abs() + (hit.t * ray.dir).abs()))
-                    });
-                let n = pm
-                    .and_then(|m| m.shading_normal_with(hit.prim_id, hit.u, hit.v, ray.dir, shading))
-                    .unwrap_or(ng_raw);
+            Geometry::Phong(pm) => {
+                let (p, err) = pm.surface_point(hit.prim_id, hit.u, hit.v).unwrap_or_else(|| {
+                    let p = ray.at(hit.t);
+                    (p, gamma(7) * (ray.org.abs() + (hit.t * ray.dir).abs()))
+                });
+                let n = pm.shading_normal_with(hit.prim_id, hit.u, hit.v, ray.dir, shading).unwrap_or(ng_raw);
                 (p, err, n)
             }
         };
@@ -1402,8 +1342,8 @@ impl Object {
         let ng = if entering { ng_raw } else { -ng_raw };
         // The shading normal on the same side as the geometric one.
         let n = if n_shade.dot(ng) < 0.0 { -n_shade } else { n_shade };
-        let (terminator, lift, bumps) = match (self.mode, &self.phong) {
-            (ObjectMode::Phong { .. }, Some(pm)) => {
+        let (terminator, lift, bumps) = match &self.geometry {
+            Geometry::Phong(pm) => {
                 let lifts = matches!(terminator, Terminator::Lift | Terminator::LiftNg);
                 let lift = if lifts {
                     // The side the ray came from, relative to the vertex normals.
@@ -1418,7 +1358,7 @@ impl Object {
                     .map(|(height, reach)| BumpBound { geom: hit.geom_id, height, reach });
                 (terminator, lift, bumps)
             }
-            _ => (Terminator::Plain, Vec3::ZERO, None),
+            Geometry::Flat => (Terminator::Plain, Vec3::ZERO, None),
         };
         SurfacePoint {
             p,
