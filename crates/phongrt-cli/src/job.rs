@@ -147,18 +147,7 @@ impl RenderJob {
 
         // Resolve the camera and the ground under it.
         let camera = resolve_camera(args, &source, &plan, &input)?;
-        let up = camera.up.normalize_or_zero();
-        let sf_ground = sf.and_then(|s| s.ground.clone());
-        let ground = (args.ground || sf_ground.is_some()).then(|| {
-            let g = sf_ground.unwrap_or_default();
-            let kd = g.kd.map_or(render::Ground::default().kd, Vec3::from);
-            let ground = render::Ground { up, height: g.height, kd, radius: None };
-            // Large enough that the view does not see its far edge (--frame-shadow off: as before).
-            let aspect = plan.width as f32 / plan.height as f32;
-            let fit = args.camera.frame_shadow == cli::Switch::On;
-            let radius = fit.then(|| ground.radius_for_view(input.bounds(), &camera, aspect));
-            render::Ground { radius, ..ground }
-        });
+        let ground = resolve_ground(args, sf, &plan, &input, &camera);
         let settings = RenderSettings {
             width: plan.width,
             height: plan.height,
@@ -288,6 +277,28 @@ impl RenderJob {
     }
 }
 
+/// The ground (--ground or the scene file's `[ground]`), perpendicular to the camera's up, and
+/// large enough that the view does not see its far edge (--frame-shadow off: as before).
+fn resolve_ground(
+    args: &RenderArgs,
+    sf: Option<&SceneFile>,
+    plan: &RenderPlan,
+    input: &scene::Scene,
+    camera: &Camera,
+) -> Option<render::Ground> {
+    let up = camera.up.normalize_or_zero();
+    let sf_ground = sf.and_then(|s| s.ground.clone());
+    (args.ground || sf_ground.is_some()).then(|| {
+        let g = sf_ground.unwrap_or_default();
+        let kd = g.kd.map_or(render::Ground::default().kd, Vec3::from);
+        let ground = render::Ground { up, height: g.height, kd, radius: None };
+        let aspect = plan.width as f32 / plan.height as f32;
+        let fit = args.camera.frame_shadow == cli::Switch::On;
+        let radius = fit.then(|| ground.radius_for_view(input.bounds(), camera, aspect));
+        render::Ground { radius, ..ground }
+    })
+}
+
 /// The camera: the default view (up axis detected unless given, three-quarter front view,
 /// --orbit), then the scene file's and the command line's settings over it. A camera that makes
 /// no image is an error naming where each setting came from.
@@ -356,22 +367,28 @@ pub(crate) fn resolve_camera(
         from[2] = "--up".into();
     }
     // Check it. (A zero image size makes the framing infinite; render() refuses that size itself.)
-    if let Some(p) = camera.problem().filter(|_| width > 0 && height > 0) {
-        let src = match p {
-            render::CameraProblem::EyeAtLookAt(_) | render::CameraProblem::NonFinite { .. } => {
-                format!("eye from {}, look_at from {}", from[0], from[1])
-            }
-            render::CameraProblem::UpParallel { .. } => {
-                format!("up from {}, eye from {}, look_at from {}", from[2], from[0], from[1])
-            }
-            render::CameraProblem::Fov(_) if args.camera.fov.is_some() => "--fov".into(),
-            render::CameraProblem::Fov(_) => in_file("fov"),
-        };
-        // A camera made bad by flags is bad usage; one from a file is bad input.
-        if src.contains("--") {
-            usage!("camera: {p} ({src})");
-        }
-        bail!("camera: {p} ({src})");
+    if width > 0 && height > 0 {
+        let fov_from = if args.camera.fov.is_some() { "--fov".into() } else { in_file("fov") };
+        check_camera(&camera, &from, &fov_from)?;
     }
     Ok(camera)
+}
+
+/// A camera that makes no image is an error naming where each setting came from (`from`: eye,
+/// look_at and up; `fov_from`): bad usage if a flag made it bad, bad input if a file did.
+fn check_camera(camera: &Camera, from: &[String; 3], fov_from: &str) -> anyhow::Result<()> {
+    let Some(p) = camera.problem() else { return Ok(()) };
+    let src = match p {
+        render::CameraProblem::EyeAtLookAt(_) | render::CameraProblem::NonFinite { .. } => {
+            format!("eye from {}, look_at from {}", from[0], from[1])
+        }
+        render::CameraProblem::UpParallel { .. } => {
+            format!("up from {}, eye from {}, look_at from {}", from[2], from[0], from[1])
+        }
+        render::CameraProblem::Fov(_) => fov_from.to_string(),
+    };
+    if src.contains("--") {
+        usage!("camera: {p} ({src})");
+    }
+    bail!("camera: {p} ({src})");
 }

@@ -90,6 +90,7 @@ impl Light {
 /// What a surface does to light, as the integrator uses it.
 #[derive(Clone, Copy, Debug, PartialEq)]
 pub struct Surface {
+    /// Diffuse reflectance (MTL `Kd`).
     pub kd: Vec3,
     /// Mirror reflectance (MTL `illum` 3, 5, 7: `Ks`); zero = no reflection rays.
     pub mirror: Vec3,
@@ -105,6 +106,7 @@ pub struct Surface {
 }
 
 impl Surface {
+    /// A diffuse surface of reflectance `kd`, nothing else.
     pub fn diffuse(kd: Vec3) -> Self {
         Surface { kd, mirror: Vec3::ZERO, transmission: 0.0, ior: 1.0, specular: Vec3::ZERO, shininess: 0.0 }
     }
@@ -176,10 +178,12 @@ impl Surface {
         self.specular * ((self.shininess + 8.0) / 8.0 * c.powf(self.shininess))
     }
 
+    /// Whether the surface reflects as a mirror (then reflection rays are traced).
     pub fn reflects(&self) -> bool {
         self.mirror.max_element() > 0.0
     }
 
+    /// Whether the surface transmits light (then refraction rays are traced, and shadow rays pass it).
     pub fn refracts(&self) -> bool {
         self.transmission > 0.0
     }
@@ -334,7 +338,9 @@ pub enum EnvironmentSource {
 /// shadow rays per shading point, and seen by rays that leave the scene. Only when asked for.
 #[derive(Clone, Debug)]
 pub struct Environment {
+    /// Where the light comes from.
     pub source: EnvironmentSource,
+    /// Shadow rays per shading point.
     pub samples: u32,
 }
 
@@ -379,6 +385,7 @@ impl Environment {
 /// Ambient occlusion, only when asked for.
 #[derive(Clone, Copy, Debug, PartialEq)]
 pub struct AmbientOcclusion {
+    /// Rays per shading point.
     pub samples: u32,
     /// Occluders farther than this (world units) do not count.
     pub distance: f32,
@@ -387,7 +394,7 @@ pub struct AmbientOcclusion {
 /// The set of effects the scene calls for, derived before rendering.
 #[derive(Clone, Debug, PartialEq)]
 pub struct Effects {
-    /// Lights that cast shadows (indices into `World::lights`).
+    /// Lights that cast shadows (indices into [`World::lights`]).
     pub shadow_lights: Vec<usize>,
     /// Lights with soft shadows (area lights).
     pub soft_shadow_lights: Vec<usize>,
@@ -395,9 +402,11 @@ pub struct Effects {
     pub glossy: Vec<String>,
     /// Objects with a `map_Kd` texture.
     pub textured: Vec<String>,
-    /// Objects whose material reflects / refracts (names).
+    /// Objects whose material reflects (names).
     pub reflective: Vec<String>,
+    /// Objects whose material refracts (names).
     pub refractive: Vec<String>,
+    /// Ambient occlusion, if asked for.
     pub ambient_occlusion: Option<AmbientOcclusion>,
     /// Environment light: its kind and samples per shading point.
     pub environment: Option<String>,
@@ -449,9 +458,11 @@ pub struct Object {
     pub name: String,
     /// How its surface is made, with the Phong patches for a Phong object.
     pub geometry: Geometry,
-    /// Vertex normals, positions and triangles (vertex indices), as loaded.
+    /// Unit vertex normals, one per position, as loaded.
     pub normals: Vec<Vec3>,
+    /// Vertex positions, as loaded.
     pub positions: Vec<Vec3>,
+    /// Triangles (indices into `positions`), as loaded.
     pub indices: Vec<[u32; 3]>,
     /// What the surface does to light.
     pub surface: Surface,
@@ -508,6 +519,7 @@ pub struct ObjectSettings {
 }
 
 impl ObjectSettings {
+    /// Settings for `mode`, creases kept straight.
     pub fn new(mode: ObjectMode) -> Self {
         ObjectSettings { mode, straight_creases: true }
     }
@@ -1136,6 +1148,7 @@ impl World {
 /// A shading point: position with its float error bound, normals facing the incoming ray.
 #[derive(Clone, Copy, Debug)]
 pub struct SurfacePoint {
+    /// Position on the surface.
     pub p: Vec3,
     /// Conservative bound on the absolute error of `p`, per axis.
     pub p_error: Vec3,
@@ -1391,6 +1404,7 @@ impl Object {
 pub struct Rng(SplitMix);
 
 impl Rng {
+    /// A generator seeded with `seed`.
     pub fn new(seed: u64) -> Self {
         Rng(SplitMix(seed))
     }
