@@ -8,20 +8,14 @@ use glam::{DVec3, Vec3};
 
 use super::normals::ComputedNormals;
 use super::{classify_edges, obj, LoadOptions, LoadStats, Material, Mesh, NormalsSource};
-use crate::mesh::weld;
+use crate::mesh::{absolute_weld_tolerance, weld, weld_caps};
 
 /// The welding tolerance: `opts.weld_tolerance` times the diagonal of what the faces use (an
 /// unused far-away vertex must not change it); `build_mesh` caps it per vertex by the local
 /// edge lengths.
 pub(super) fn weld_tolerance(raw: &obj::RawObj, opts: &LoadOptions) -> f32 {
-    let (mut lo, mut hi) = (DVec3::splat(f64::INFINITY), DVec3::splat(f64::NEG_INFINITY));
-    for c in raw.faces.iter().flat_map(|f| &f.corners) {
-        let p = raw.positions[c.v as usize].as_dvec3();
-        lo = lo.min(p);
-        hi = hi.max(p);
-    }
-    let diag = if lo.x <= hi.x { (hi - lo).length() } else { 0.0 };
-    (opts.weld_tolerance.max(0.0) as f64 * diag).min(f32::MAX as f64) as f32
+    let used = raw.faces.iter().flat_map(|f| &f.corners).map(|c| raw.positions[c.v as usize]);
+    absolute_weld_tolerance(used, opts.weld_tolerance)
 }
 
 /// The faces of one mesh to build: a (group, material) pair in order of first appearance.
@@ -188,21 +182,11 @@ impl WeldedPositions {
             u
         };
         let positions: Vec<Vec3> = used.iter().map(|&v| raw.positions[v as usize]).collect();
-        // Per position, a tenth of its shortest non-zero incident edge: welding moves no corner
-        // farther than that, so corners a and b of an edge of length L never meet
-        // (|a - b| <= cap_a + cap_b <= 0.2 L), and welding never collapses a triangle.
-        let slot = |v: u32| used.binary_search(&v).unwrap_or(0);
-        let mut caps = vec![f64::INFINITY; used.len()];
-        for t in tri_corners {
-            for k in 0..3 {
-                let (a, b) = (slot(t[k].v), slot(t[(k + 1) % 3].v));
-                let len = positions[a].as_dvec3().distance(positions[b].as_dvec3());
-                if len > 0.0 {
-                    caps[a] = caps[a].min(0.1 * len);
-                    caps[b] = caps[b].min(0.1 * len);
-                }
-            }
-        }
+        // Per position, a tenth of its shortest non-zero incident edge (`weld_caps`): welding
+        // moves no corner farther than that, so welding never collapses a triangle.
+        let slot = |v: u32| used.binary_search(&v).unwrap_or(0) as u32;
+        let triangles: Vec<[u32; 3]> = tri_corners.iter().map(|t| t.map(|c| slot(c.v))).collect();
+        let caps = weld_caps(&positions, &triangles);
         let ids = weld(&positions, &caps, tol);
         WeldedPositions { used, positions, ids }
     }
