@@ -6,7 +6,7 @@ use std::sync::Arc;
 use assert_cmd::Command;
 use glam::Vec3;
 use phongrt::embree::Device;
-use phongrt::scene::{uv_sphere, Scene};
+use phongrt::scene::{uv_sphere, Model};
 use phongrt_render::texture::Texture;
 use phongrt_render::{
     render, Camera, Environment, EnvironmentSource, ObjectMode, ObjectSettings, RenderSettings, Surface,
@@ -14,7 +14,7 @@ use phongrt_render::{
 };
 
 fn world(device: &Device) -> World {
-    let mut w = World::from_scene(device, &Scene::from_mesh(uv_sphere(48, 24, 1.0)), |_, _| {
+    let mut w = World::from_scene(device, &Model::from_mesh(uv_sphere(48, 24, 1.0)), |_, _| {
         ObjectSettings::new(ObjectMode::Phong { alpha: 0.75 })
     })
     .unwrap();

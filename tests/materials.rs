@@ -7,7 +7,7 @@ use std::path::Path;
 
 use glam::Vec3;
 use phongrt::embree::Device;
-use phongrt::scene::{uv_sphere, Material, Scene};
+use phongrt::scene::{uv_sphere, Material, Model};
 use phongrt_render::world::fresnel_dielectric;
 use phongrt_render::{
     render, Camera, Ground, Light, ObjectMode, ObjectSettings, RenderSettings, Surface, World,
@@ -22,7 +22,7 @@ fn camera() -> Camera {
 }
 
 fn sphere_world(device: &Device, ground: Option<Ground>) -> World {
-    let scene = Scene::from_mesh(uv_sphere(48, 24, 1.0));
+    let scene = Model::from_mesh(uv_sphere(48, 24, 1.0));
     World::from_scene_with_ground(device, &scene, ground, |_, _| {
         ObjectSettings::new(ObjectMode::Phong { alpha: 0.75 })
     })

@@ -7,7 +7,7 @@ use std::path::Path;
 
 use glam::Vec3;
 use phongrt::embree::Device;
-use phongrt::scene::{uv_sphere, Material, Scene};
+use phongrt::scene::{uv_sphere, Material, Model};
 use phongrt_render::scene_file::SceneFile;
 use phongrt_render::{
     render, render_extent, Camera, Light, ObjectMode, ObjectSettings, Progress, RenderExtent, RenderOutput,
@@ -25,7 +25,7 @@ fn render_on(threads: usize, world: &World, camera: &Camera, s: &RenderSettings)
 }
 
 fn sphere_world(device: &Device, seg: u32, rings: u32, mode: ObjectMode) -> World {
-    World::from_scene(device, &Scene::from_mesh(uv_sphere(seg, rings, 1.0)), |_, _| ObjectSettings::new(mode))
+    World::from_scene(device, &Model::from_mesh(uv_sphere(seg, rings, 1.0)), |_, _| ObjectSettings::new(mode))
         .unwrap()
 }
 

@@ -8,7 +8,7 @@ use std::path::Path;
 use assert_cmd::Command;
 use glam::Vec3;
 use phongrt::embree::Device;
-use phongrt::scene::{load_obj, uv_sphere, LoadOptions, Material, Scene};
+use phongrt::scene::{load_obj, uv_sphere, LoadOptions, Material, Model};
 use phongrt_render::{
     render_extent, AmbientOcclusion, Camera, Ground, Light, ObjectMode, ObjectSettings, RenderExtent,
     RenderOutput, RenderSettings, Surface, Window, World,
@@ -46,7 +46,7 @@ fn same_both_ways(
 fn busy_world(device: &Device) -> World {
     let mut world = World::from_scene_with_ground(
         device,
-        &Scene::from_mesh(uv_sphere(10, 5, 1.0)),
+        &Model::from_mesh(uv_sphere(10, 5, 1.0)),
         Some(Ground::default()),
         |_, _| ObjectSettings::new(ObjectMode::Phong { alpha: 1.0 }),
     )

@@ -7,11 +7,11 @@ use std::path::Path;
 use super::build::{build_meshes, unit_face_normal, weld_tolerance};
 use super::{
     cut_token, mtl, obj, read_regular_file, EdgeKind, FoldedWarnings, LoadOptions, LoadStats, Material, Mesh,
-    NormalsSource, ReadFailure, Scene, SceneError, MAX_MTL_BYTES, MAX_OBJ_BYTES,
+    Model, NormalsSource, ReadFailure, SceneError, MAX_MTL_BYTES, MAX_OBJ_BYTES,
 };
 
 /// Load an OBJ file and its MTL files.
-pub fn load_obj(path: &Path, opts: &LoadOptions) -> Result<Scene, SceneError> {
+pub fn load_obj(path: &Path, opts: &LoadOptions) -> Result<Model, SceneError> {
     let bytes = read_regular_file(path, MAX_OBJ_BYTES).map_err(|e| match e {
         ReadFailure::Io(error) => SceneError::Io { path: path.to_path_buf(), error },
         ReadFailure::NotRegular(kind) => SceneError::NotRegularFile { path: path.to_path_buf(), kind },
@@ -31,7 +31,7 @@ pub fn load_obj(path: &Path, opts: &LoadOptions) -> Result<Scene, SceneError> {
 }
 
 /// Load OBJ text as if read from `path` (MTL files are looked up beside `path`).
-pub fn load_obj_text(text: &str, path: &Path, opts: &LoadOptions) -> Result<Scene, SceneError> {
+pub fn load_obj_text(text: &str, path: &Path, opts: &LoadOptions) -> Result<Model, SceneError> {
     let raw = obj::parse(text, path)?;
     let dir = path.parent().unwrap_or(Path::new(".")).to_path_buf();
     let name = path.display().to_string();
@@ -55,7 +55,7 @@ pub fn load_obj_text(text: &str, path: &Path, opts: &LoadOptions) -> Result<Scen
         };
         return Err(SceneError::Empty { path: path.to_path_buf(), detail });
     }
-    let mut scene = Scene { path: path.to_path_buf(), meshes, materials, warnings, stats };
+    let mut scene = Model { path: path.to_path_buf(), meshes, materials, warnings, stats };
     scene.recount();
     Ok(scene)
 }

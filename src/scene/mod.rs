@@ -22,10 +22,21 @@ pub use error::{cut_token, SceneError};
 pub use generate::uv_sphere;
 pub use load::{load_obj, load_obj_text};
 pub use model::{
-    LoadOptions, LoadStats, Material, Mesh, NormalsSource, Scene, SMALL_FACE_CREASE_DEG, SMALL_FACE_FRACTION,
+    LoadOptions, LoadStats, Material, Mesh, Model, NormalsSource, SMALL_FACE_CREASE_DEG, SMALL_FACE_FRACTION,
 };
 pub use read::{read_regular_file, ReadFailure, MAX_MTL_BYTES, MAX_OBJ_BYTES};
 pub use warnings::FoldedWarnings;
 pub use write::write_obj;
 
 pub use crate::mesh::{classify_edges, EdgeKind};
+
+/// The former name of [`Model`] (a loaded OBJ file), beside [`crate::embree::Scene`] (the Embree
+/// scene builder): kept for one release.
+///
+/// ```
+/// #[allow(deprecated)]
+/// let old: phongrt::scene::Scene = phongrt::scene::Model::from_mesh(phongrt::scene::uv_sphere(8, 4, 1.0));
+/// assert_eq!(old.meshes.len(), 1);
+/// ```
+#[deprecated(note = "renamed to `Model` (`phongrt::embree::Scene` is the Embree scene)")]
+pub type Scene = Model;

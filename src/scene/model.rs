@@ -1,4 +1,4 @@
-//! The loaded data model: [`Scene`] (meshes, materials, warnings, counts), [`Mesh`], [`Material`],
+//! The loaded data model: [`Model`] (meshes, materials, warnings, counts), [`Mesh`], [`Material`],
 //! [`LoadStats`] and the [`LoadOptions`] that shape loading.
 
 use std::path::PathBuf;
@@ -32,7 +32,7 @@ pub struct Mesh {
     pub normals: Vec<Vec3>,
     /// Triangles, counter-clockwise as in the file.
     pub indices: Vec<[u32; 3]>,
-    /// Index into [`Scene::materials`].
+    /// Index into [`Model::materials`].
     pub material: Option<usize>,
     /// Per vertex: the welded position id (vertices with equal ids share a position).
     pub position_ids: Vec<u32>,
@@ -148,9 +148,10 @@ pub struct LoadStats {
     pub straightened_edges: usize,
 }
 
-/// A loaded scene.
+/// A loaded model: an OBJ file's meshes and materials (or one generated mesh), what loading
+/// warned about, and its counts. Not [`crate::embree::Scene`], the Embree scene it is traced in.
 #[derive(Clone, Debug)]
-pub struct Scene {
+pub struct Model {
     /// The OBJ file (`<name>` for a generated mesh).
     pub path: PathBuf,
     /// One mesh per object/group and material, in order of first appearance.
@@ -204,7 +205,7 @@ impl Default for LoadOptions {
     }
 }
 
-impl Scene {
+impl Model {
     /// Bounds of every mesh position.
     pub fn bounds(&self) -> (Vec3, Vec3) {
         let mut lo = Vec3::splat(f32::INFINITY);
@@ -221,8 +222,8 @@ impl Scene {
     }
 
     /// A scene of one mesh (for generated geometry).
-    pub fn from_mesh(mesh: Mesh) -> Scene {
-        let mut s = Scene {
+    pub fn from_mesh(mesh: Mesh) -> Model {
+        let mut s = Model {
             path: PathBuf::from(format!("<{}>", mesh.name)),
             meshes: vec![mesh],
             materials: Vec::new(),

@@ -9,7 +9,7 @@ use phongrt::scene;
 
 /// The largest patch offset from its flat triangle relative to the triangle's width, over the
 /// scene's meshes at the default alpha with straight creases: `(ratio, mesh, triangle)`.
-pub(crate) fn largest_deviation(s: &scene::Scene) -> Option<(f64, usize, usize)> {
+pub(crate) fn largest_deviation(s: &scene::Model) -> Option<(f64, usize, usize)> {
     let alpha = phongrt::phong::DEFAULT_ALPHA as f64;
     s.meshes
         .iter()
@@ -40,7 +40,7 @@ pub(crate) fn info_cmd(args: InfoArgs) -> anyhow::Result<()> {
 }
 
 /// The description as one JSON object (`--json`).
-fn info_json(args: &InfoArgs, s: &scene::Scene, device: &Device) -> serde_json::Value {
+fn info_json(args: &InfoArgs, s: &scene::Model, device: &Device) -> serde_json::Value {
     let (major, minor, patch) = device.version();
     let st = &s.stats;
     let (lo, hi) = s.bounds();
@@ -65,7 +65,7 @@ fn info_json(args: &InfoArgs, s: &scene::Scene, device: &Device) -> serde_json::
 }
 
 /// The description as text, one fact a line.
-fn info_text(args: &InfoArgs, s: &scene::Scene, device: &Device) -> String {
+fn info_text(args: &InfoArgs, s: &scene::Model, device: &Device) -> String {
     let (major, minor, patch) = device.version();
     let st = &s.stats;
     let (lo, hi) = s.bounds();

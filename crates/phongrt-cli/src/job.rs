@@ -95,7 +95,7 @@ pub(crate) struct RenderJob {
     pub(crate) progress: bool,
     pub(crate) plan: RenderPlan,
     pub(crate) source: SceneSource,
-    pub(crate) input: scene::Scene,
+    pub(crate) input: scene::Model,
     pub(crate) load: LoadOptions,
     pub(crate) modes: ModeRules,
     pub(crate) settings: RenderSettings,
@@ -311,7 +311,7 @@ pub(crate) fn resolve_camera(
     args: &RenderArgs,
     source: &SceneSource,
     plan: &RenderPlan,
-    input: &scene::Scene,
+    input: &scene::Model,
 ) -> anyhow::Result<Camera> {
     let sf = source.file.as_ref();
     let (width, height) = (plan.width, plan.height);

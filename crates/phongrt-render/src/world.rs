@@ -522,7 +522,7 @@ impl World {
     /// Build a world from a loaded scene; `settings(i)` chooses the mode of mesh `i`.
     pub fn from_scene(
         device: &Device,
-        input: &sc::Scene,
+        input: &sc::Model,
         settings: impl Fn(usize, &sc::Mesh) -> ObjectSettings,
     ) -> Result<World, RenderError> {
         Self::from_scene_with_ground(device, input, None, settings)
@@ -532,7 +532,7 @@ impl World {
     /// named "ground"; the bounds and so the camera's framing leave it out).
     pub fn from_scene_with_ground(
         device: &Device,
-        input: &sc::Scene,
+        input: &sc::Model,
         ground: Option<Ground>,
         settings: impl Fn(usize, &sc::Mesh) -> ObjectSettings,
     ) -> Result<World, RenderError> {
