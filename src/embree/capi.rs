@@ -157,14 +157,14 @@ struct MeshArrays {
 impl MeshArrays {
     /// Refuse unknown flags, a NULL scene, a NULL array with a non-zero count (an array may be
     /// NULL when its count is 0, phongrt.h) and counts past what a `uint` index or primID can
-    /// reach. Only the pointers' NULL-ness is read.
-    fn check(&self, func: &str, scene: sys::RTCScene, flags: u32) -> Result<(), String> {
+    /// reach. Only the pointers' NULL-ness is read (and the scene's, given as `scene_is_null`).
+    fn check(&self, func: &str, scene_is_null: bool, flags: u32) -> Result<(), String> {
         if flags & !PHONGRT_MESH_PLAIN != 0 {
             return Err(format!(
                 "{func}: unknown flags {flags:#x} (PHONGRT_MESH_PLAIN = 1 is the only flag)"
             ));
         }
-        if scene.is_null() {
+        if scene_is_null {
             return Err(format!("{func}: NULL scene"));
         }
         let (vertex_count, triangle_count) = (self.vertex_count, self.triangle_count);
@@ -227,7 +227,7 @@ unsafe fn attach_checked(
         // SAFETY: mesh_out is writable per the contract.
         unsafe { *mesh_out = std::ptr::null_mut() };
     }
-    arrays.check(func, scene, flags)?;
+    arrays.check(func, scene.is_null(), flags)?;
     // SAFETY: the arrays hold the stated counts (phongrt.h contract) and are non-NULL when the
     // count is non-zero (checked above).
     let (p, n, idx) = unsafe { arrays.copy() };
