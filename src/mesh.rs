@@ -130,6 +130,20 @@ pub fn weld_caps(positions: &[Vec3], triangles: &[[u32; 3]]) -> Vec<f64> {
     caps
 }
 
+/// The absolute welding tolerance: `relative` times the diagonal of the bounds of `used` (the
+/// positions the triangles use: an unused far-away vertex must not change it), at most
+/// `f32::MAX`; 0 for no positions.
+pub(crate) fn absolute_weld_tolerance(used: impl IntoIterator<Item = Vec3>, relative: f32) -> f32 {
+    let (mut lo, mut hi) = (DVec3::splat(f64::INFINITY), DVec3::splat(f64::NEG_INFINITY));
+    for p in used {
+        let p = p.as_dvec3();
+        lo = lo.min(p);
+        hi = hi.max(p);
+    }
+    let diag = if lo.x <= hi.x { (hi - lo).length() } else { 0.0 };
+    (relative.max(0.0) as f64 * diag).min(f32::MAX as f64) as f32
+}
+
 /// Per triangle edge: whether Phong tessellation must keep it straight (every edge that is not
 /// [`EdgeKind::Smooth`]: a crease, a border or a non-manifold edge).
 pub fn straight_edges(edge_kinds: &[[EdgeKind; 3]]) -> Vec<[bool; 3]> {
@@ -363,14 +377,8 @@ impl Prepared {
 /// and finite non-zero normals (`PhongMesh`'s constructors check, naming what is wrong).
 pub fn prepare(positions: &[Vec3], normals: &[Vec3], indices: &[[u32; 3]], weld_tolerance: f32) -> Prepared {
     // Compute the welding tolerance from the size of what the triangles use.
-    let (mut lo, mut hi) = (DVec3::splat(f64::INFINITY), DVec3::splat(f64::NEG_INFINITY));
-    for &i in indices.iter().flatten() {
-        let p = positions[i as usize].as_dvec3();
-        lo = lo.min(p);
-        hi = hi.max(p);
-    }
-    let diag = if lo.x <= hi.x { (hi - lo).length() } else { 0.0 };
-    let tol = (weld_tolerance.max(0.0) as f64 * diag).min(f32::MAX as f64) as f32;
+    let used = indices.iter().flatten().map(|&i| positions[i as usize]);
+    let tol = absolute_weld_tolerance(used, weld_tolerance);
 
     // Compute the welded position of every input vertex.
     let caps = weld_caps(positions, indices);

@@ -5,7 +5,7 @@ use std::path::Path;
 
 use glam::Vec3;
 use phongrt::embree::Device;
-use phongrt::scene::{load_obj_text, LoadOptions, Scene};
+use phongrt::scene::{load_obj_text, LoadOptions, Model};
 use phongrt_render::{render, Camera, ObjectMode, ObjectSettings, RenderSettings, World};
 
 /// An octahedron whose every corner uses the `vn` line given (written once, as line 7).
@@ -34,12 +34,12 @@ fn sliver_cone(n: u32) -> String {
     t
 }
 
-fn load(text: &str) -> Scene {
+fn load(text: &str) -> Model {
     load_obj_text(text, Path::new("bad.obj"), &LoadOptions::default()).unwrap()
 }
 
 /// Render at 96×72, 1 spp, in Phong mode: (clamped samples, pixels not finite, pixels covered).
-fn render_counts(scene: &Scene) -> (u64, usize, usize) {
+fn render_counts(scene: &Model) -> (u64, usize, usize) {
     let device = Device::new().unwrap();
     let world = World::from_scene(&device, scene, |_, _| ObjectSettings {
         mode: ObjectMode::Phong { alpha: 0.75 },

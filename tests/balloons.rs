@@ -8,7 +8,7 @@ use std::path::Path;
 use glam::Vec3;
 use phongrt::embree::{Device, GeometryOptions, PhongMesh, Ray, Scene};
 use phongrt::phong::accuracy::SplitMix;
-use phongrt::scene::{load_obj, load_obj_text, EdgeKind, LoadOptions, Scene as Loaded};
+use phongrt::scene::{load_obj, load_obj_text, EdgeKind, LoadOptions, Model};
 
 /// A coin without normals: its top is a flat disc of radius 1 fanned from its centre into
 /// `segments` slivers (0.5° wide for 720), with a 20° bevel 0.08 wide at the rim, a side wall and
@@ -40,13 +40,13 @@ fn sliver_coin_obj(segments: u32) -> String {
     t
 }
 
-fn load_coin(bulge_limit: f32) -> Loaded {
+fn load_coin(bulge_limit: f32) -> Model {
     let opts = LoadOptions { bulge_limit, ..LoadOptions::default() };
     load_obj_text(&sliver_coin_obj(720), Path::new("coin.obj"), &opts).unwrap()
 }
 
 /// The largest patch offset from its flat triangle over the triangle's width, at α = 3/4.
-fn deviation(s: &Loaded) -> f64 {
+fn deviation(s: &Model) -> f64 {
     let m = &s.meshes[0];
     phongrt::mesh::max_patch_deviation(&m.positions, &m.normals, &m.indices, &m.straight_edges(), 0.75)
         .unwrap()

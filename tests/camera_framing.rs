@@ -153,7 +153,7 @@ fn orbit_turns_the_view_about_the_up_axis() {
 
 #[test]
 fn a_given_up_axis_is_the_cameras_and_the_key_light_is_at_its_upper_left() {
-    let input = phongrt::scene::Scene::from_mesh(phongrt::scene::uv_sphere(24, 12, 1.0));
+    let input = phongrt::scene::Model::from_mesh(phongrt::scene::uv_sphere(24, 12, 1.0));
     let (c, _) = default_view(&input, Some(Vec3::Z), 0.0, None, 4.0 / 3.0);
     assert_eq!(c.up, Vec3::Z);
     let back = (c.eye - c.look_at).normalize();
@@ -164,14 +164,14 @@ fn a_given_up_axis_is_the_cameras_and_the_key_light_is_at_its_upper_left() {
 }
 
 /// The default view with or without a ground (and front cues, the default) of `input`.
-fn view_on_ground(input: &phongrt::scene::Scene, ground: bool, front_cues: bool, aspect: f32) -> Camera {
+fn view_on_ground(input: &phongrt::scene::Model, ground: bool, front_cues: bool, aspect: f32) -> Camera {
     let options = DefaultViewOptions { ground, front_cues, ..DefaultViewOptions::default() };
     default_view_with(input, None, 0.0, None, aspect, options).0
 }
 
 /// The fraction of the model's vertices' shadows on the ground (at the bottom of its bounds,
 /// under the camera's key light) whose projection lies inside the `w`×`h` frame.
-fn shadow_inside(input: &phongrt::scene::Scene, camera: &Camera, w: u32, h: u32) -> f32 {
+fn shadow_inside(input: &phongrt::scene::Model, camera: &Camera, w: u32, h: u32) -> f32 {
     let up = camera.up.normalize();
     let (lo, hi) = input.bounds();
     let bottom = [lo, hi].iter().map(|c| c.dot(up)).fold(f32::INFINITY, f32::min);

@@ -6,14 +6,14 @@ use std::sync::Arc;
 use assert_cmd::Command;
 use glam::Vec3;
 use phongrt::embree::Device;
-use phongrt::scene::{uv_sphere, Scene};
+use phongrt::scene::{uv_sphere, Model};
 use phongrt_render::texture::Texture;
 use phongrt_render::{
     render, Camera, Environment, EnvironmentSource, ObjectMode, RenderSettings, Surface, World,
 };
 
 fn world(device: &Device, environment: Option<Environment>) -> World {
-    let scene = Scene::from_mesh(uv_sphere(48, 24, 1.0));
+    let scene = Model::from_mesh(uv_sphere(48, 24, 1.0));
     World::builder(device, &scene)
         .mode(ObjectMode::Phong { alpha: 0.75 })
         .lights([])

@@ -295,7 +295,7 @@ fn save_failure(seed: u64, i: usize, kind: &str, bytes: &[u8]) -> PathBuf {
     p
 }
 
-fn render_checked(device: &Device, scene: &phongrt::scene::Scene, c: &mut Counts) {
+fn render_checked(device: &Device, scene: &phongrt::scene::Model, c: &mut Counts) {
     for mode in [ObjectMode::Flat, ObjectMode::Phong { alpha: 0.75 }] {
         let world = match World::from_scene(device, scene, |_, _| ObjectSettings::new(mode)) {
             Ok(w) => w,

@@ -7,7 +7,7 @@ use std::path::{Path, PathBuf};
 use std::process::Command;
 use std::time::Duration;
 
-use phongrt::scene::{load_obj, LoadOptions, Scene, SceneError};
+use phongrt::scene::{load_obj, LoadOptions, Model, SceneError};
 use phongrt_render::scene_file::SceneFile;
 
 fn write(dir: &Path, name: &str, text: &str) -> PathBuf {
@@ -16,7 +16,7 @@ fn write(dir: &Path, name: &str, text: &str) -> PathBuf {
     p
 }
 
-fn load_in(dir: &Path, name: &str, text: &str) -> Result<Scene, SceneError> {
+fn load_in(dir: &Path, name: &str, text: &str) -> Result<Model, SceneError> {
     load_obj(&write(dir, name, text), &LoadOptions::default())
 }
 
@@ -312,7 +312,7 @@ fn c_api_hostile_calls() {
 
 /// Load `text` as `name` and return how long it took; `bound` is ten times the target (a
 /// correctness bound against quadratic time, not a benchmark).
-fn load_within(name: &str, text: &str, bound: Duration) -> Scene {
+fn load_within(name: &str, text: &str, bound: Duration) -> Model {
     let dir = tempfile::tempdir().unwrap();
     let start = std::time::Instant::now();
     let s = load_in(dir.path(), name, text).unwrap();

@@ -7,7 +7,7 @@ use std::path::Path;
 
 use glam::Vec3;
 use phongrt::embree::Device;
-use phongrt::scene::{uv_sphere, Material, Scene};
+use phongrt::scene::{uv_sphere, Material, Model};
 use phongrt_render::world::fresnel_dielectric;
 use phongrt_render::{
     render, Camera, Ground, Light, ObjectMode, RenderSettings, Surface, World, WorldBuilder,
@@ -27,7 +27,7 @@ fn sphere_world(
     ground: Option<Ground>,
     more: impl for<'a> FnOnce(WorldBuilder<'a>) -> WorldBuilder<'a>,
 ) -> World {
-    let scene = Scene::from_mesh(uv_sphere(48, 24, 1.0));
+    let scene = Model::from_mesh(uv_sphere(48, 24, 1.0));
     more(World::builder(device, &scene).mode(ObjectMode::Phong { alpha: 0.75 }).ground(ground))
         .build()
         .unwrap()

@@ -3,9 +3,9 @@
 
 use std::path::Path;
 
-use phongrt::scene::{load_obj_text, LoadOptions, Scene};
+use phongrt::scene::{load_obj_text, LoadOptions, Model};
 
-fn load(text: &str, opts: &LoadOptions) -> Scene {
+fn load(text: &str, opts: &LoadOptions) -> Model {
     load_obj_text(text, Path::new("gen.obj"), opts).unwrap()
 }
 

@@ -234,7 +234,7 @@ fn attach_phong_shares_the_mesh_with_the_caller_without_a_copy() {
 fn the_renderers_phong_objects_share_their_mesh_with_the_scene() {
     use phongrt_render::{ObjectMode, ObjectSettings, World};
     let device = Device::new().unwrap();
-    let scene = phongrt::scene::Scene::from_mesh(uv_sphere(12, 6, 1.0));
+    let scene = phongrt::scene::Model::from_mesh(uv_sphere(12, 6, 1.0));
     let world = World::from_scene(&device, &scene, |_, _| ObjectSettings {
         mode: ObjectMode::Phong { alpha: 1.0 },
         straight_creases: true,

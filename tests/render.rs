@@ -7,7 +7,7 @@ use std::path::Path;
 
 use glam::Vec3;
 use phongrt::embree::Device;
-use phongrt::scene::{uv_sphere, Material, Scene};
+use phongrt::scene::{uv_sphere, Material, Model};
 use phongrt_render::scene_file::SceneFile;
 use phongrt_render::{
     default_lights, render, render_extent, Camera, Light, ObjectMode, ObjectSettings, Progress, RenderExtent,
@@ -36,7 +36,7 @@ fn sphere_world_with(
     mode: ObjectMode,
     more: impl for<'a> FnOnce(WorldBuilder<'a>) -> WorldBuilder<'a>,
 ) -> World {
-    let scene = Scene::from_mesh(uv_sphere(seg, rings, 1.0));
+    let scene = Model::from_mesh(uv_sphere(seg, rings, 1.0));
     more(World::builder(device, &scene).mode(mode)).build().unwrap()
 }
 

@@ -8,7 +8,7 @@ use std::path::Path;
 use assert_cmd::Command;
 use glam::Vec3;
 use phongrt::embree::Device;
-use phongrt::scene::{load_obj, uv_sphere, LoadOptions, Material, Scene};
+use phongrt::scene::{load_obj, uv_sphere, LoadOptions, Material, Model};
 use phongrt_render::{
     default_lights, render_extent, AmbientOcclusion, Camera, Ground, Light, ObjectMode, RenderExtent,
     RenderOutput, RenderSettings, Surface, Window, World,
@@ -44,7 +44,7 @@ fn same_both_ways(
 /// A Phong sphere on a flat ground with a shadowing directional light, a shadowing point light,
 /// a light without shadows, a sphere light and ambient occlusion.
 fn busy_world(device: &Device, surface: Option<Surface>) -> World {
-    let scene = Scene::from_mesh(uv_sphere(10, 5, 1.0));
+    let scene = Model::from_mesh(uv_sphere(10, 5, 1.0));
     let lights = [
         Light::Point { position: Vec3::new(1.5, 2.5, 2.0), intensity: Vec3::splat(3.0), shadows: true },
         Light::Directional {

@@ -14,7 +14,7 @@ fn write(dir: &Path, name: &str, text: &str) -> PathBuf {
     p
 }
 
-fn load_text(text: &str) -> Result<phongrt::scene::Scene, SceneError> {
+fn load_text(text: &str) -> Result<phongrt::scene::Model, SceneError> {
     let dir = tempfile::tempdir().unwrap();
     let p = write(dir.path(), "t.obj", text);
     load_obj(&p, &LoadOptions::default())

@@ -11,7 +11,7 @@ use std::path::Path;
 use glam::Vec3;
 use phongrt::embree::{Device, Ray};
 use phongrt::phong::{ShadingNormal, DEFAULT_ALPHA};
-use phongrt::scene::{load_obj, LoadOptions, Mesh, Scene};
+use phongrt::scene::{load_obj, LoadOptions, Mesh, Model};
 use phongrt_render::world::SurfacePoint;
 use phongrt_render::{
     default_lights, render, Camera, Ground, Light, ObjectMode, ObjectSettings, RayCounts, RenderSettings,
@@ -20,7 +20,7 @@ use phongrt_render::{
 
 const SIZE: u32 = 600;
 
-fn demo_sphere() -> Scene {
+fn demo_sphere() -> Model {
     load_obj(
         Path::new(env!("CARGO_MANIFEST_DIR")).join("scenes/sphere_lowpoly.obj").as_path(),
         &LoadOptions::default(),
@@ -46,14 +46,14 @@ impl Default for Setup {
     }
 }
 
-fn world(device: &Device, scene: &Scene, s: &Setup) -> World {
+fn world(device: &Device, scene: &Model, s: &Setup) -> World {
     world_with(device, scene, s, |b| b)
 }
 
 /// As `world`, with `more` of the builder's settings.
 fn world_with(
     device: &Device,
-    scene: &Scene,
+    scene: &Model,
     s: &Setup,
     more: impl for<'a> FnOnce(WorldBuilder<'a>) -> WorldBuilder<'a>,
 ) -> World {
@@ -184,7 +184,7 @@ fn terminator_light(sp: &SurfacePoint, extra: impl Fn(Vec3) -> bool) -> Vec3 {
 #[test]
 fn lift_is_taken_on_the_side_the_ray_came_from() {
     let device = Device::new().unwrap();
-    let w = world(&device, &Scene::from_mesh(bowl_sheet()), &Setup::default());
+    let w = world(&device, &Model::from_mesh(bowl_sheet()), &Setup::default());
     // Seen from below, the back of the sheet (its vertex normals point up), and lit from below at
     // the terminator: the lift must go down, towards the viewer, not up through the sheet.
     let ray = Ray::new(Vec3::new(0.6, -2.0, 0.1), Vec3::Y);
@@ -210,7 +210,7 @@ fn lift_never_moves_an_origin_through_other_geometry() {
         m
     };
     let phong = || ObjectSettings::new(ObjectMode::Phong { alpha: DEFAULT_ALPHA });
-    let alone = World::from_scene(&device, &Scene::from_mesh(dome.clone()), |_, _| phong()).unwrap();
+    let alone = World::from_scene(&device, &Model::from_mesh(dome.clone()), |_, _| phong()).unwrap();
     let ray = Ray::new(Vec3::new(0.9, 5.0, 0.0), -Vec3::Y);
     let hit = alone.scene().intersect1(ray).expect("the dome is hit");
     let sp = alone.objects()[0].surface_point(&hit, &ray, alone.shading(), alone.terminator());
@@ -224,7 +224,7 @@ fn lift_never_moves_an_origin_through_other_geometry() {
         Vec3::new(3.0, top, 3.0),
         Vec3::new(-3.0, top, 3.0),
     ];
-    let mut scene = Scene::from_mesh(dome);
+    let mut scene = Model::from_mesh(dome);
     scene.meshes.push(Mesh::from_triangles(
         "cover",
         c.to_vec(),
@@ -351,7 +351,7 @@ fn shadow_rays_leave_an_exactly_planar_phong_patch() {
     let device = Device::new().unwrap();
     let tri =
         Mesh::from_triangles("tri", vec![Vec3::ZERO, Vec3::X, Vec3::Y], vec![Vec3::Z; 3], vec![[0, 1, 2]]);
-    let w = world(&device, &Scene::from_mesh(tri), &Setup::default());
+    let w = world(&device, &Model::from_mesh(tri), &Setup::default());
     let camera = Camera::frame_bounds(w.bounds().0, w.bounds().1, 1.0);
     let frame = camera.frame(1.0).unwrap();
     let l = Vec3::new(-0.5, 0.7, 0.6).normalize();

@@ -8,15 +8,15 @@ use std::path::Path;
 use glam::Vec3;
 use phongrt::embree::{Device, Ray};
 use phongrt::phong::DEFAULT_ALPHA;
-use phongrt::scene::{load_obj, uv_sphere, LoadOptions, Mesh, Scene};
+use phongrt::scene::{load_obj, uv_sphere, LoadOptions, Mesh, Model};
 use phongrt_render::{ObjectMode, RayCounts, Terminator, World};
 
-fn demo_sphere() -> Scene {
+fn demo_sphere() -> Model {
     let path = Path::new(env!("CARGO_MANIFEST_DIR")).join("scenes/sphere_lowpoly.obj");
     load_obj(&path, &LoadOptions::default()).unwrap()
 }
 
-fn phong_world(device: &Device, scene: &Scene, terminator: Terminator) -> World {
+fn phong_world(device: &Device, scene: &Model, terminator: Terminator) -> World {
     World::builder(device, scene)
         .mode(ObjectMode::Phong { alpha: DEFAULT_ALPHA })
         .terminator(terminator)
@@ -115,8 +115,8 @@ fn a_mesh_shadows_itself_across_a_real_gap() {
     // cap under the upper one is in shadow, though both belong to the same object.
     let s = uv_sphere(12, 6, 1.0);
     let l = Vec3::new(0.3, 1.0, 0.2).normalize();
-    let w = phong_world(&device, &Scene::from_mesh(merged(&s, &s, l * 2.25)), Terminator::Lift);
-    let view = phong_world(&device, &Scene::from_mesh(s.clone()), Terminator::Lift);
+    let w = phong_world(&device, &Model::from_mesh(merged(&s, &s, l * 2.25)), Terminator::Lift);
+    let view = phong_world(&device, &Model::from_mesh(s.clone()), Terminator::Lift);
     let bound = w.objects()[0].geometry.phong().unwrap().bump_bound(0).unwrap();
     println!("bump bound (height, reach) of a patch: {bound:?}");
     assert!(bound.0 < 0.25, "the bound {bound:?} spans the gap: the test proves nothing");

@@ -117,7 +117,7 @@ fn a_missing_or_undecodable_texture_warns_and_renders_the_flat_colour() {
 #[test]
 fn untextured_objects_make_no_texture_lookups() {
     let device = Device::new().unwrap();
-    let scene = phongrt::scene::Scene::from_mesh(phongrt::scene::uv_sphere(12, 6, 1.0));
+    let scene = phongrt::scene::Model::from_mesh(phongrt::scene::uv_sphere(12, 6, 1.0));
     let world = World::from_scene(&device, &scene, |_, _| ObjectSettings::new(ObjectMode::Flat)).unwrap();
     let cam = Camera { eye: Vec3::new(0.0, 0.0, 4.0), look_at: Vec3::ZERO, up: Vec3::Y, fov_y_deg: 40.0 };
     let s = RenderSettings { width: 16, height: 16, spp: 1, seed: 0, packets: true };

@@ -123,69 +123,12 @@ unsafe fn attach_mesh(
     flags: u32,
     mesh_out: *mut *mut phongrt_mesh,
 ) -> u32 {
+    let arrays = MeshArrays { positions, normals, vertex_count, indices, triangle_count };
     let r = catch_unwind(AssertUnwindSafe(|| -> Result<u32, String> {
-        if !mesh_out.is_null() {
-            // SAFETY: mesh_out is writable per the contract.
-            unsafe { *mesh_out = std::ptr::null_mut() };
-        }
-        if flags & !PHONGRT_MESH_PLAIN != 0 {
-            return Err(format!(
-                "{func}: unknown flags {flags:#x} (PHONGRT_MESH_PLAIN = 1 is the only flag)"
-            ));
-        }
-        // An array may be NULL when its count is 0 (phongrt.h).
-        if scene.is_null() {
-            return Err(format!("{func}: NULL scene"));
-        }
-        for (ptr_null, what, count) in [
-            (positions.is_null(), "positions", vertex_count),
-            (normals.is_null(), "normals", vertex_count),
-            (indices.is_null(), "indices", triangle_count),
-        ] {
-            if ptr_null && count > 0 {
-                return Err(format!("{func}: {what} is NULL with a count of {count}"));
-            }
-        }
-        if vertex_count > (u32::MAX as usize) {
-            return Err(format!("{func}: {vertex_count} vertices: more than a uint index can reach"));
-        }
-        if triangle_count > (u32::MAX as usize) {
-            return Err(format!("{func}: {triangle_count} triangles: more than a primID can count"));
-        }
-        // SAFETY: the arrays hold the stated counts (phongrt.h contract) and are non-NULL when
-        // the count is non-zero (checked above); we copy them.
-        let (p, n, idx) = unsafe {
-            let p = if vertex_count > 0 { read_vec3s(positions, vertex_count) } else { Vec::new() };
-            let n = if vertex_count > 0 { read_vec3s(normals, vertex_count) } else { Vec::new() };
-            let idx: Vec<[u32; 3]> = if triangle_count > 0 {
-                let i = std::slice::from_raw_parts(indices, triangle_count * 3);
-                i.chunks_exact(3).map(|c| [c[0], c[1], c[2]]).collect()
-            } else {
-                Vec::new()
-            };
-            (p, n, idx)
-        };
-        // Zero and non-finite normals, bad indices and alpha are refused by the builder, naming
-        // the vertex, triangle or value.
-        let builder = PhongMesh::builder(&p, &n, &idx).alpha(alpha);
-        let builder = if flags & PHONGRT_MESH_PLAIN != 0 { builder.plain() } else { builder };
-        let mesh = builder.build().map_err(|e| format!("{func}: {e}"))?;
-        let boxed = Box::new(phongrt_mesh { data: UserData::new(mesh) });
-        // SAFETY: `scene` is live and non-NULL (contract, checked above); the mesh box is
-        // leaked to the caller, who frees it with phongrt_mesh_release only after releasing the
-        // scene (phongrt.h), so the geometry's user pointer stays valid while it can be traced;
-        // on an error nothing is attached and the box is dropped here.
-        let id = unsafe { attach_user_raw(scene, &boxed.data, GeometryOptions::default()) }
-            .map_err(|e| format!("{func}: {e}"))?;
-        if !mesh_out.is_null() {
-            // SAFETY: mesh_out is writable per the contract.
-            unsafe { *mesh_out = Box::into_raw(boxed) };
-        } else {
-            // Without a handle the caller can never free it: keep it for the process lifetime.
-            Box::leak(boxed);
-        }
-        Ok(id)
+        // SAFETY: this function's contract, which is `attach_checked`'s.
+        unsafe { attach_checked(func, scene, &arrays, alpha, flags, mesh_out) }
     }));
+    // No panic unwinds into C: a caught one is an error like any other.
     match r {
         Ok(Ok(id)) => {
             set_error("");
@@ -200,6 +143,114 @@ unsafe fn attach_mesh(
             sys::RTC_INVALID_GEOMETRY_ID
         }
     }
+}
+
+/// The caller's mesh arrays as `phongrt_attach_mesh` receives them (not yet checked).
+struct MeshArrays {
+    positions: *const f32,
+    normals: *const f32,
+    vertex_count: usize,
+    indices: *const u32,
+    triangle_count: usize,
+}
+
+impl MeshArrays {
+    /// Refuse unknown flags, a NULL scene, a NULL array with a non-zero count (an array may be
+    /// NULL when its count is 0, phongrt.h) and counts past what a `uint` index or primID can
+    /// reach. Only the pointers' NULL-ness is read (and the scene's, given as `scene_is_null`).
+    fn check(&self, func: &str, scene_is_null: bool, flags: u32) -> Result<(), String> {
+        if flags & !PHONGRT_MESH_PLAIN != 0 {
+            return Err(format!(
+                "{func}: unknown flags {flags:#x} (PHONGRT_MESH_PLAIN = 1 is the only flag)"
+            ));
+        }
+        if scene_is_null {
+            return Err(format!("{func}: NULL scene"));
+        }
+        let (vertex_count, triangle_count) = (self.vertex_count, self.triangle_count);
+        for (ptr_null, what, count) in [
+            (self.positions.is_null(), "positions", vertex_count),
+            (self.normals.is_null(), "normals", vertex_count),
+            (self.indices.is_null(), "indices", triangle_count),
+        ] {
+            if ptr_null && count > 0 {
+                return Err(format!("{func}: {what} is NULL with a count of {count}"));
+            }
+        }
+        if vertex_count > (u32::MAX as usize) {
+            return Err(format!("{func}: {vertex_count} vertices: more than a uint index can reach"));
+        }
+        if triangle_count > (u32::MAX as usize) {
+            return Err(format!("{func}: {triangle_count} triangles: more than a primID can count"));
+        }
+        Ok(())
+    }
+
+    /// Copy the arrays: positions, normals, triangles.
+    ///
+    /// # Safety
+    /// Each array holds its stated count (phongrt.h contract) and is non-NULL when its count is
+    /// non-zero ([`MeshArrays::check`] passed).
+    unsafe fn copy(&self) -> (Vec<Vec3>, Vec<Vec3>, Vec<[u32; 3]>) {
+        let (vertex_count, triangle_count) = (self.vertex_count, self.triangle_count);
+        // SAFETY: the arrays hold the stated counts (phongrt.h contract) and are non-NULL when
+        // the count is non-zero (this function's contract); we copy them.
+        unsafe {
+            let p = if vertex_count > 0 { read_vec3s(self.positions, vertex_count) } else { Vec::new() };
+            let n = if vertex_count > 0 { read_vec3s(self.normals, vertex_count) } else { Vec::new() };
+            let idx: Vec<[u32; 3]> = if triangle_count > 0 {
+                let i = std::slice::from_raw_parts(self.indices, triangle_count * 3);
+                i.chunks_exact(3).map(|c| [c[0], c[1], c[2]]).collect()
+            } else {
+                Vec::new()
+            };
+            (p, n, idx)
+        }
+    }
+}
+
+/// Check and copy the caller's arrays, build the Phong mesh and attach it to `scene`; the
+/// geometry id, or the one-line error naming `func`.
+///
+/// # Safety
+/// As `phongrt_attach_mesh`: `scene` is NULL or live, the arrays hold their stated counts,
+/// `mesh_out` is NULL or writable.
+unsafe fn attach_checked(
+    func: &str,
+    scene: sys::RTCScene,
+    arrays: &MeshArrays,
+    alpha: f32,
+    flags: u32,
+    mesh_out: *mut *mut phongrt_mesh,
+) -> Result<u32, String> {
+    if !mesh_out.is_null() {
+        // SAFETY: mesh_out is writable per the contract.
+        unsafe { *mesh_out = std::ptr::null_mut() };
+    }
+    arrays.check(func, scene.is_null(), flags)?;
+    // SAFETY: the arrays hold the stated counts (phongrt.h contract) and are non-NULL when the
+    // count is non-zero (checked above).
+    let (p, n, idx) = unsafe { arrays.copy() };
+    // Zero and non-finite normals, bad indices and alpha are refused by the builder, naming
+    // the vertex, triangle or value.
+    let builder = PhongMesh::builder(&p, &n, &idx).alpha(alpha);
+    let builder = if flags & PHONGRT_MESH_PLAIN != 0 { builder.plain() } else { builder };
+    let mesh = builder.build().map_err(|e| format!("{func}: {e}"))?;
+    let boxed = Box::new(phongrt_mesh { data: UserData::new(mesh) });
+    // SAFETY: `scene` is live and non-NULL (contract, checked above); the mesh box is
+    // leaked to the caller, who frees it with phongrt_mesh_release only after releasing the
+    // scene (phongrt.h), so the geometry's user pointer stays valid while it can be traced;
+    // on an error nothing is attached and the box is dropped here.
+    let id = unsafe { attach_user_raw(scene, &boxed.data, GeometryOptions::default()) }
+        .map_err(|e| format!("{func}: {e}"))?;
+    if !mesh_out.is_null() {
+        // SAFETY: mesh_out is writable per the contract.
+        unsafe { *mesh_out = Box::into_raw(boxed) };
+    } else {
+        // Without a handle the caller can never free it: keep it for the process lifetime.
+        Box::leak(boxed);
+    }
+    Ok(id)
 }
 
 /// See `phongrt_mesh_release` in include/phongrt.h.

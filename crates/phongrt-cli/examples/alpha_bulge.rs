@@ -12,7 +12,7 @@ use std::path::Path;
 
 use glam::Vec3;
 use phongrt::embree::{Device, Ray};
-use phongrt::scene::{load_obj, LoadOptions, Scene};
+use phongrt::scene::{load_obj, LoadOptions, Model};
 use phongrt_render::{Camera, ObjectMode, World};
 
 const SIZE: u32 = 400;
@@ -54,7 +54,7 @@ fn main() -> anyhow::Result<()> {
     println!("| model | alpha | largest radius / corner radius | silhouette area / flat |");
     println!("|---|---|---|---|");
     for arg in std::env::args().skip(1) {
-        let scene: Scene = load_obj(Path::new(&arg), &LoadOptions::default())?;
+        let scene: Model = load_obj(Path::new(&arg), &LoadOptions::default())?;
         let (lo, hi) = scene.bounds();
         let center = 0.5 * (lo + hi);
         let corner_radius = scene

@@ -524,81 +524,175 @@ pub fn bench_scene(
     opts: &BenchOptions,
     mut progress: impl FnMut(&str),
 ) -> Result<Vec<BenchRow>, BenchError> {
-    let BenchOptions { width, height, max_pretess_tris, robust } = *opts;
+    // Compute the camera, its rays and the reference depths (direct f64).
     let device = Device::new()?;
-    let (frame, rays) = primary_rays(name, m, width, height)?;
+    let (frame, rays) = primary_rays(name, m, opts.width, opts.height)?;
     progress(&format!("{name}: reference (direct f64)"));
-    let (refscene, _) = build(&device, m, BenchMethod::DirectF64, robust)?;
+    let (refscene, _) = build(&device, m, BenchMethod::DirectF64, opts.robust)?;
     let reference = depth(&refscene, &rays, true);
     drop(refscene);
+    // Run each method that fits its budget.
+    let view = BenchView { name, frame: &frame, rays: &rays, width: opts.width, height: opts.height };
     let mut rows = Vec::new();
     for &method in methods {
         progress(&format!("{name}: {}", method.name()));
-        if let BenchMethod::Pretessellated(l) = method {
-            let tris = m.indices.len() as u64 * (l as u64) * (l as u64);
-            let verts = m.indices.len() as u64 * (l as u64 + 1) * (l as u64 + 2) / 2;
-            if verts > u32::MAX as u64 {
-                progress(&format!(
-                    "{name}: {} skipped: {verts} vertices exceed 32-bit indices",
-                    method.name()
-                ));
-                continue;
-            }
-            if tris > max_pretess_tris {
-                // About 85-100 bytes per triangle in Embree's BVH at this size (measured: 860 MB
-                // for 1.0e7 triangles): beyond the budget it would not fit beside everything else.
-                progress(&format!("{name}: {} skipped: {tris} triangles exceed the budget of {max_pretess_tris} (--max-pretess-tris)", method.name()));
-                continue;
-            }
-        }
-        if method == BenchMethod::Subdivision && m.indices.len() > MAX_SUBDIVISION_FACES {
-            progress(&format!(
-                "{name}: {} skipped: {} faces exceed the budget of {MAX_SUBDIVISION_FACES}",
-                method.name(),
-                m.indices.len()
-            ));
+        if let Some(why) = skip_reason(name, m, method, opts.max_pretess_tris) {
+            progress(&why);
             continue;
         }
-        let before = device.memory_bytes().0;
-        let t0 = Instant::now();
-        let (scene, own) = build(&device, m, method, robust)?;
-        let build_ms = t0.elapsed().as_secs_f64() * 1e3;
-        let embree_bytes = device.memory_bytes().0 - before;
-        // Time the first image as a user sees it, then each rate as the best of a few runs (this
-        // machine is shared: the best run is the one least disturbed).
-        let t1 = Instant::now();
-        let d_all = depth(&scene, &rays, true);
-        let first_s = t1.elapsed().as_secs_f64();
-        let all_s = best_of(TIMING_RUNS, || {
-            std::hint::black_box(depth(&scene, &rays, true));
-        })
-        .min(first_s);
-        let t2 = Instant::now();
-        let d_one = depth(&scene, &rays, false);
-        let one_s = t2.elapsed().as_secs_f64().min(best_of(TIMING_RUNS - 1, || {
-            std::hint::black_box(depth(&scene, &rays, false));
-        }));
-        debug_assert_eq!(d_all, d_one);
-        let light = bench_light(&frame);
-        let shaded_ms = best_of(TIMING_RUNS, || {
-            std::hint::black_box(shaded(&scene, &frame, width, height, light));
-        }) * 1e3;
-        // The same with packets: the same rays, the same answers.
-        let t3 = Instant::now();
-        let d_packets = depth_packets(&scene, &rays, width, height);
-        let packets_s = t3.elapsed().as_secs_f64().min(best_of(TIMING_RUNS - 1, || {
-            std::hint::black_box(depth_packets(&scene, &rays, width, height));
-        }));
-        if d_packets != d_one {
-            let differ = d_packets.iter().zip(&d_one).filter(|(a, b)| a != b).count();
-            return Err(BenchError::PacketsDiffer { scene: name.to_string(), method: method.name(), differ });
+        rows.push(bench_method(&device, m, method, opts.robust, &view, &reference)?);
+    }
+    Ok(rows)
+}
+
+/// Why `method` is not run on `m` (as a progress line), or `None` to run it: a pre-tessellation
+/// past 32-bit indices or the triangle budget, a subdivision past its face budget.
+fn skip_reason(name: &str, m: &Mesh, method: BenchMethod, max_pretess_tris: u64) -> Option<String> {
+    if let BenchMethod::Pretessellated(l) = method {
+        let tris = m.indices.len() as u64 * (l as u64) * (l as u64);
+        let verts = m.indices.len() as u64 * (l as u64 + 1) * (l as u64 + 2) / 2;
+        if verts > u32::MAX as u64 {
+            return Some(format!(
+                "{name}: {} skipped: {verts} vertices exceed 32-bit indices",
+                method.name()
+            ));
         }
-        let shaded_ms_packets = best_of(TIMING_RUNS, || {
-            std::hint::black_box(shaded_packets(&scene, &frame, width, height, light));
-        }) * 1e3;
+        if tris > max_pretess_tris {
+            // About 85-100 bytes per triangle in Embree's BVH at this size (measured: 860 MB
+            // for 1.0e7 triangles): beyond the budget it would not fit beside everything else.
+            return Some(format!("{name}: {} skipped: {tris} triangles exceed the budget of {max_pretess_tris} (--max-pretess-tris)", method.name()));
+        }
+    }
+    if method == BenchMethod::Subdivision && m.indices.len() > MAX_SUBDIVISION_FACES {
+        return Some(format!(
+            "{name}: {} skipped: {} faces exceed the budget of {MAX_SUBDIVISION_FACES}",
+            method.name(),
+            m.indices.len()
+        ));
+    }
+    None
+}
+
+/// What every method of one bench scene traces: the scene's name, camera and primary rays.
+struct BenchView<'a> {
+    name: &'a str,
+    frame: &'a phongrt_render::CameraFrame,
+    rays: &'a [Ray],
+    width: u32,
+    height: u32,
+}
+
+/// Build `method`'s scene on `m`, time it and compare its depths with `reference`.
+fn bench_method(
+    device: &Device,
+    m: &Mesh,
+    method: BenchMethod,
+    robust: bool,
+    view: &BenchView,
+    reference: &[Option<f32>],
+) -> Result<BenchRow, BenchError> {
+    // Compute the build time and memory.
+    let before = device.memory_bytes().0;
+    let t0 = Instant::now();
+    let (scene, own) = build(device, m, method, robust)?;
+    let build_ms = t0.elapsed().as_secs_f64() * 1e3;
+    let embree_bytes = device.memory_bytes().0 - before;
+    // Compute the rates, then the depth error of single rays against the reference.
+    let (timing, d_one) = time_method(&scene, method, view)?;
+    let err = DepthError::new(&d_one, reference);
+    let rays = view.rays.len() as f64;
+    Ok(BenchRow {
+        scene: view.name.to_string(),
+        triangles: m.indices.len(),
+        method,
+        build_ms,
+        embree_bytes,
+        own_bytes: own,
+        mrays_1t: rays / timing.one_s / 1e6,
+        mrays_all: rays / timing.all_s / 1e6,
+        first_image_ms: build_ms + timing.first_s * 1e3,
+        err_t_mean: err.mean,
+        err_t_max: err.max,
+        err_t_p50: err.p50,
+        silhouette_px: err.silhouette_px,
+        shaded_ms: timing.shaded_ms,
+        mrays_1t_packets: rays / timing.packets_s / 1e6,
+        shaded_ms_packets: timing.shaded_ms_packets,
+    })
+}
+
+/// The times of one built scene: seconds for the depth passes, milliseconds for the shaded
+/// renders.
+struct MethodTiming {
+    /// The first all-core depth pass.
+    first_s: f64,
+    /// The best all-core depth pass (the first one included).
+    all_s: f64,
+    /// The best single-thread depth pass.
+    one_s: f64,
+    /// The best single-thread depth pass in 8-ray packets.
+    packets_s: f64,
+    shaded_ms: f64,
+    shaded_ms_packets: f64,
+}
+
+/// Time `scene`'s depth passes and shaded renders, each the best of a few runs (this machine is
+/// shared: the best run is the one least disturbed), and check that packets answer as single
+/// rays do. Also returns the single-ray depths.
+fn time_method(
+    scene: &CommittedScene,
+    method: BenchMethod,
+    view: &BenchView,
+) -> Result<(MethodTiming, Vec<Option<f32>>), BenchError> {
+    let &BenchView { name, frame, rays, width, height } = view;
+    // Time the first image as a user sees it, then each rate.
+    let t1 = Instant::now();
+    let d_all = depth(scene, rays, true);
+    let first_s = t1.elapsed().as_secs_f64();
+    let all_s = best_of(TIMING_RUNS, || {
+        std::hint::black_box(depth(scene, rays, true));
+    })
+    .min(first_s);
+    let t2 = Instant::now();
+    let d_one = depth(scene, rays, false);
+    let one_s = t2.elapsed().as_secs_f64().min(best_of(TIMING_RUNS - 1, || {
+        std::hint::black_box(depth(scene, rays, false));
+    }));
+    debug_assert_eq!(d_all, d_one);
+    let light = bench_light(frame);
+    let shaded_ms = best_of(TIMING_RUNS, || {
+        std::hint::black_box(shaded(scene, frame, width, height, light));
+    }) * 1e3;
+    // The same with packets: the same rays, the same answers.
+    let t3 = Instant::now();
+    let d_packets = depth_packets(scene, rays, width, height);
+    let packets_s = t3.elapsed().as_secs_f64().min(best_of(TIMING_RUNS - 1, || {
+        std::hint::black_box(depth_packets(scene, rays, width, height));
+    }));
+    if d_packets != d_one {
+        let differ = d_packets.iter().zip(&d_one).filter(|(a, b)| a != b).count();
+        return Err(BenchError::PacketsDiffer { scene: name.to_string(), method: method.name(), differ });
+    }
+    let shaded_ms_packets = best_of(TIMING_RUNS, || {
+        std::hint::black_box(shaded_packets(scene, frame, width, height, light));
+    }) * 1e3;
+    Ok((MethodTiming { first_s, all_s, one_s, packets_s, shaded_ms, shaded_ms_packets }, d_one))
+}
+
+/// The relative depth error `|t - t_ref| / t_ref` over the pixels both hit, and the pixels hit
+/// by one and not the other.
+struct DepthError {
+    mean: f64,
+    max: f64,
+    p50: f64,
+    silhouette_px: usize,
+}
+
+impl DepthError {
+    fn new(depths: &[Option<f32>], reference: &[Option<f32>]) -> DepthError {
         let (mut sum, mut max, mut n, mut sil) = (0.0f64, 0.0f64, 0usize, 0usize);
         let mut errs = Vec::with_capacity(reference.len());
-        for (a, r) in d_one.iter().zip(&reference) {
+        for (a, r) in depths.iter().zip(reference) {
             match (a, r) {
                 (Some(a), Some(r)) => {
                     let e = ((*a as f64 - *r as f64) / *r as f64).abs();
@@ -611,27 +705,9 @@ pub fn bench_scene(
                 _ => sil += 1,
             }
         }
-        rows.push(BenchRow {
-            scene: name.to_string(),
-            triangles: m.indices.len(),
-            method,
-            build_ms,
-            embree_bytes,
-            own_bytes: own,
-            mrays_1t: rays.len() as f64 / one_s / 1e6,
-            mrays_all: rays.len() as f64 / all_s / 1e6,
-            first_image_ms: build_ms + first_s * 1e3,
-            err_t_mean: if n > 0 { sum / n as f64 } else { 0.0 },
-            err_t_max: max,
-            err_t_p50: median(&mut errs),
-            silhouette_px: sil,
-            shaded_ms,
-            mrays_1t_packets: rays.len() as f64 / packets_s / 1e6,
-            shaded_ms_packets,
-        });
-        drop(scene);
+        let mean = if n > 0 { sum / n as f64 } else { 0.0 };
+        DepthError { mean, max, p50: median(&mut errs), silhouette_px: sil }
     }
-    Ok(rows)
 }
 
 /// The median of `v` (reordered), 0 when empty.

@@ -87,7 +87,7 @@ pub(crate) struct RenderJob {
     pub(crate) progress: bool,
     pub(crate) plan: RenderPlan,
     pub(crate) source: SceneSource,
-    pub(crate) input: scene::Scene,
+    pub(crate) input: scene::Model,
     pub(crate) load: LoadOptions,
     pub(crate) modes: ModeRules,
     pub(crate) settings: RenderSettings,
@@ -283,7 +283,7 @@ fn resolve_ground(
     args: &RenderArgs,
     sf: Option<&SceneFile>,
     plan: &RenderPlan,
-    input: &scene::Scene,
+    input: &scene::Model,
     camera: &Camera,
 ) -> Option<render::Ground> {
     let up = camera.up.normalize_or_zero();
@@ -306,7 +306,7 @@ pub(crate) fn resolve_camera(
     args: &RenderArgs,
     source: &SceneSource,
     plan: &RenderPlan,
-    input: &scene::Scene,
+    input: &scene::Model,
 ) -> anyhow::Result<Camera> {
     let sf = source.file.as_ref();
     let (width, height) = (plan.width, plan.height);

@@ -47,7 +47,7 @@ pub(crate) fn load_options(args: &LoadArgs, crease_angle: f32) -> anyhow::Result
 
 /// Read the OBJ at `path`, with a spinner on a terminal when it takes beyond a second and
 /// `show`, then print its warnings.
-pub(crate) fn load(path: &Path, opts: &LoadOptions, show: bool) -> anyhow::Result<scene::Scene> {
+pub(crate) fn load(path: &Path, opts: &LoadOptions, show: bool) -> anyhow::Result<scene::Model> {
     check_obj_path(path)?;
     let name = path.file_name().map_or_else(|| path.display().to_string(), |n| n.to_string_lossy().into());
     let loading = Stage::start(format!("loading {name}"), show);

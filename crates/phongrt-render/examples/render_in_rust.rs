@@ -7,7 +7,7 @@
 use std::path::Path;
 
 use phongrt::embree::Device;
-use phongrt::scene::{uv_sphere, Scene};
+use phongrt::scene::{uv_sphere, Model};
 use phongrt_render::{
     render_extent, thread_pool, Camera, ObjectMode, Progress, RenderExtent, RenderOutput, RenderSettings,
     World,
@@ -17,7 +17,7 @@ use phongrt_render::{
 pub fn run(out: &Path) -> Result<RenderOutput, Box<dyn std::error::Error>> {
     // Compute the world: one low-poly sphere, every object Phong at the documented alpha.
     let device = Device::new()?;
-    let scene = Scene::from_mesh(uv_sphere(12, 6, 1.0));
+    let scene = Model::from_mesh(uv_sphere(12, 6, 1.0));
     let mode = ObjectMode::Phong { alpha: phongrt::phong::DEFAULT_ALPHA };
     let world = World::builder(&device, &scene).mode(mode).build()?;
 

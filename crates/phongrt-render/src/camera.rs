@@ -296,7 +296,7 @@ impl Default for DefaultViewOptions {
 /// field of view `fov_y_deg` (35 degrees by default), no ground, with front cues. Returns the
 /// detection too (for reporting).
 pub fn default_view(
-    scene: &phongrt::scene::Scene,
+    scene: &phongrt::scene::Model,
     up: Option<Vec3>,
     orbit_deg: f32,
     fov_y_deg: Option<f32>,
@@ -308,7 +308,7 @@ pub fn default_view(
 /// As [`default_view`], with the choices of `options`: on a ground, the view frames the model
 /// and its shadow together.
 pub fn default_view_with(
-    scene: &phongrt::scene::Scene,
+    scene: &phongrt::scene::Model,
     up: Option<Vec3>,
     orbit_deg: f32,
     fov_y_deg: Option<f32>,
@@ -366,7 +366,7 @@ const FACE_PART_NAMES: [&str; 6] = ["head", "face", "eye", "kopf", "auge", "tete
 /// spider's "Kopf" and "Auge"): the horizontal direction from the centre of the bounds to the
 /// centroid of those objects' vertices, when it is more than 10% of the horizontal extent off
 /// the centre (a model that is all head, like `african_head`'s object "head", keeps its front).
-pub fn named_part_front(scene: &phongrt::scene::Scene, up: Vec3) -> Option<Vec3> {
+pub fn named_part_front(scene: &phongrt::scene::Model, up: Vec3) -> Option<Vec3> {
     let is_face = |name: &str| {
         let n = name.to_ascii_lowercase();
         FACE_PART_NAMES.iter().any(|k| n.contains(k))
@@ -390,7 +390,7 @@ pub fn named_part_front(scene: &phongrt::scene::Scene, up: Vec3) -> Option<Vec3>
 /// it, so the default three-quarter view (30 degrees towards the model's left) sees the handle at
 /// 60 degrees, standing out to the right. `None` when the front already comes from the model's
 /// length ([`detect_up`]'s head end) or nothing sticks out.
-pub fn handle_front(scene: &phongrt::scene::Scene, detection: UpDetection) -> Option<Vec3> {
+pub fn handle_front(scene: &phongrt::scene::Model, detection: UpDetection) -> Option<Vec3> {
     let up = detection.up;
     if (detection.front - front_for_up(up)).length() > 1e-6 {
         return None;

@@ -75,7 +75,7 @@ type SettingsFn<'a> = Rc<dyn Fn(usize, &sc::Mesh) -> ObjectSettings + 'a>;
 #[derive(Clone)]
 pub struct WorldBuilder<'a> {
     device: &'a Device,
-    input: &'a sc::Scene,
+    input: &'a sc::Model,
     settings: SettingsFn<'a>,
     ground: Option<Ground>,
     lights: Vec<Light>,
@@ -92,7 +92,7 @@ pub struct WorldBuilder<'a> {
 impl World {
     /// A builder of the world of `input`'s meshes on `device`, with the defaults listed at
     /// [`WorldBuilder`].
-    pub fn builder<'a>(device: &'a Device, input: &'a sc::Scene) -> WorldBuilder<'a> {
+    pub fn builder<'a>(device: &'a Device, input: &'a sc::Model) -> WorldBuilder<'a> {
         WorldBuilder {
             device,
             input,
@@ -116,7 +116,7 @@ impl World {
     /// mode of mesh `i`: a shortcut for `World::builder(device, input).settings(settings).build()`.
     pub fn from_scene(
         device: &Device,
-        input: &sc::Scene,
+        input: &sc::Model,
         settings: impl Fn(usize, &sc::Mesh) -> ObjectSettings,
     ) -> Result<World, RenderError> {
         World::builder(device, input).settings(settings).build()
@@ -439,11 +439,11 @@ mod tests {
     use super::*;
 
     /// Two spheres named "a" and "b" (Phong unless told otherwise).
-    fn two_spheres() -> sc::Scene {
+    fn two_spheres() -> sc::Model {
         let a = sc::Mesh { name: "a".into(), ..sc::uv_sphere(8, 4, 1.0) };
         let mut b = sc::Mesh { name: "b".into(), ..a.clone() };
         b.positions.iter_mut().for_each(|p| *p += Vec3::X * 3.0);
-        let mut scene = sc::Scene::from_mesh(a);
+        let mut scene = sc::Model::from_mesh(a);
         scene.meshes.push(b);
         scene
     }
