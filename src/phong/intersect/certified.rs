@@ -2,6 +2,7 @@
 //! certificate proves the ray meets the patch at most once near the triangle.
 
 use super::conic::Projected;
+use super::detsign::{det_sign_on_domain, DetSign};
 use super::domain::{clamp_to_triangle, edge_band, inside, near_domain, on_ray};
 use super::newton::newton_step;
 use super::PatchHit;
@@ -14,21 +15,42 @@ fn region<T: Real>() -> (T, T) {
     (T::from_f64(-0.25 / 3.0), T::from_f64(3.5 / 3.0))
 }
 
+/// Which proofs that the projected patch is one-to-one the certified method accepts.
+#[derive(Clone, Copy, Debug, PartialEq, Eq)]
+pub(super) enum Proofs {
+    /// The positive-definite certificate alone ([`Method::CertifiedPositiveDefinite`](super::Method::CertifiedPositiveDefinite)).
+    PositiveDefinite,
+    /// The positive-definite certificate, and where it fails the det-sign certificate
+    /// ([`Method::Certified`](super::Method::Certified)).
+    WithDetSign,
+}
+
 /// The certified Newton step of [`Method::Certified`](super::Method::Certified): `Some(answer)` when it is proven,
 /// `None` when the caller must run the analytic method.
 ///
 /// Project the patch along the ray: `π(u, v) = (n1·P(u,v), n2·P(u,v))`, with `n1, n2` the ray's
-/// two planes. The ray meets the surface at `(u, v)` exactly where `π(u, v) = π(o)`. If the
-/// symmetric part of `J0⁻¹ J(u, v)` is positive definite over a convex region `R` (`J` the
-/// Jacobian of `π`, `J0` a fixed matrix), then `(x-y)ᵀ J0⁻¹ (π(x) - π(y)) > 0` for `x ≠ y` in
-/// `R`: `π` is one-to-one on `R` and the ray meets that part of the surface at most once
-/// (Gale & Nikaidô 1965). `J` is linear in `(u, v)`, so checking the three corners of a
-/// triangular `R` checks all of it. `R` is the domain enlarged by 1.25 about its centroid
-/// (larger regions fail the test on strongly curved patches more often than they save), so a
-/// Newton root in `R` but well outside the domain also proves a miss.
+/// two planes. The ray meets the surface at `(u, v)` exactly where `π(u, v) = π(o)`. Two
+/// certificates prove `π` one-to-one on a convex region (so that the ray meets that part of the
+/// surface at most once, and a converged Newton root in it is *the* answer); the second is tried
+/// where the first fails:
+///
+/// - *Positive definite*, on `R`, the domain enlarged by 1.25 about its centroid: if the
+///   symmetric part of `J0⁻¹ J(u, v)` is positive definite over `R` (`J` the Jacobian of `π`,
+///   `J0` a fixed matrix), then `(x-y)ᵀ J0⁻¹ (π(x) - π(y)) > 0` for `x ≠ y` in `R` (Gale &
+///   Nikaidô 1965). `J` is linear in `(u, v)`, so checking the three corners of a triangular `R`
+///   checks all of it. `R` is larger than the domain (larger regions fail the test on strongly
+///   curved patches more often than they save), so a Newton root in `R` but well outside the
+///   domain also proves a miss.
+/// - *Det-sign* ([`det_sign_on_domain`]), on the domain itself: if `det J` has no zero there.
+///   `π` is quadratic, so `π(y) - π(x) = J((x+y)/2) (y - x)` exactly, and the midpoint of two
+///   points of the domain is in it. It is weaker than the first (a positive definite symmetric
+///   part makes `det J > 0`), so it settles more rays, and it is tried on the domain, not on
+///   `R`: on the head and the sphere nearly every ray it still refuses there sees a true fold
+///   (the exact range of `det J` over the domain straddles zero), and each enlargement of its
+///   region refuses more.
 ///
 /// `π(u, v) - π(o)` is the pair of conics `(F, G)` of [`Projected`], so the Jacobian, the
-/// certificate and Newton's iteration all run in the plane on their 12 scalar coefficients
+/// certificates and Newton's iteration all run in the plane on their 12 scalar coefficients
 /// (the analytic fallback reuses them); `t` is the surface point's projection on the ray.
 #[inline(always)]
 pub(super) fn certified_newton<T: Real>(
@@ -38,9 +60,10 @@ pub(super) fn certified_newton<T: Real>(
     pr: &Projected<T>,
     tmin: T,
     tmax: T,
+    proofs: Proofs,
 ) -> Option<Option<PatchHit<T>>> {
     // Compute the certificate, then the root in the plane, then its point in space.
-    let anchor = one_to_one_on_region(pr)?;
+    let proof = proof_on_region(pr, proofs)?;
     let (u, v) = flat_start(pr)?;
     let (u, v, converged) = newton_plane(pr, u, v)?;
     // The ray parameter of the surface point: its projection on the ray.
@@ -51,17 +74,49 @@ pub(super) fn certified_newton<T: Real>(
     if converged && inside(u, v) {
         (u, v, t) = newton_step(p, o, d, u, v, t)?;
     }
-    // The root must be converged and on the ray to rounding. Inside R (with room for its
-    // error) it is R's only root. Outside R it is still the only one in R when the certificate
-    // also holds at the root: then the projection is one-to-one on the hull of R and the root
-    // (the certificate's matrices form a convex cone and J is linear), a proven miss.
-    let (lo, _) = region::<T>();
+    // The root must be converged and on the ray to rounding. Inside the proof's region (with
+    // room for its error) it is the region's only root. Outside it is still the only one there
+    // when the certificate also holds on the hull of the region and the root: a proven miss.
     let slack = T::from_f64(0.005);
+    let lo = match proof {
+        Proof::PositiveDefinite(_) => region::<T>().0,
+        Proof::DetSign(_) => T::ZERO,
+    };
     let in_r = u >= lo + slack && v >= lo + slack && u + v <= T::ONE - lo - slack;
-    if !converged || !on_ray(p, o, d, u, v, t) || !(in_r || certificate_holds(&anchor, jacobian(pr, u, v))) {
+    if !converged || !on_ray(p, o, d, u, v, t) || !(in_r || proof.holds_to(pr, u, v)) {
         return None;
     }
     decide(u, v, t, tmin, tmax)
+}
+
+/// A proof that the projection is one-to-one on `R`, with what extends it to a root outside `R`.
+enum Proof<T> {
+    PositiveDefinite(Anchor<T>),
+    DetSign(DetSign<T>),
+}
+
+impl<T: Real> Proof<T> {
+    /// Whether the proof extends to the hull of `R` and the point `(u, v)`.
+    #[inline(always)]
+    fn holds_to(&self, pr: &Projected<T>, u: T, v: T) -> bool {
+        match self {
+            // The matrices that pass form a convex cone and J is linear.
+            Proof::PositiveDefinite(anchor) => certificate_holds(anchor, jacobian(pr, u, v)),
+            Proof::DetSign(ds) => ds.holds_to(jacobian(pr, u, v), u, v),
+        }
+    }
+}
+
+/// The first of `proofs` that holds on `R`.
+#[inline(always)]
+fn proof_on_region<T: Real>(pr: &Projected<T>, proofs: Proofs) -> Option<Proof<T>> {
+    if let Some(anchor) = one_to_one_on_region(pr) {
+        return Some(Proof::PositiveDefinite(anchor));
+    }
+    match proofs {
+        Proofs::PositiveDefinite => None,
+        Proofs::WithDetSign => det_sign_on_domain(pr, domain_jacobians(pr)).map(Proof::DetSign),
+    }
 }
 
 /// The answer for a proven root `(u, v, t)`, R's only one: a hit inside the domain and the interval,
@@ -91,6 +146,19 @@ fn jacobian<T: Real>(pr: &Projected<T>, u: T, v: T) -> [T; 4] {
         fc * u + two * fb * v + fe,
         two * ga * u + gc * v + gd,
         gc * u + two * gb * v + ge,
+    ]
+}
+
+/// The Jacobian at the domain's corners `(0, 0)`, `(1, 0)`, `(0, 1)` (as [`jacobian`] would give
+/// it there, with one rounding per entry at most).
+#[inline(always)]
+fn domain_jacobians<T: Real>(pr: &Projected<T>) -> [[T; 4]; 3] {
+    let ([fa, fb, fc, fd, fe, _], [ga, gb, gc, gd, ge, _]) = (pr.f.k, pr.g.k);
+    let two = T::ONE + T::ONE;
+    [
+        [fd, fe, gd, ge],
+        [two * fa + fd, fc + fe, two * ga + gd, gc + ge],
+        [fc + fd, two * fb + fe, gc + gd, two * gb + ge],
     ]
 }
 
@@ -181,10 +249,149 @@ fn newton_plane<T: Real>(pr: &Projected<T>, mut u: T, mut v: T) -> Option<(T, T,
 
 #[cfg(test)]
 mod tests {
+    use super::super::conic::project;
     use super::super::{intersect, intersect_traced, Method, TestOutcome};
-    use crate::phong::accuracy::{generate, Category, SplitMix};
+    use super::{det_sign_on_domain, domain_jacobians, one_to_one_on_region};
+    use crate::phong::accuracy::{generate, Case, Category, SplitMix};
     use crate::phong::patch::Patch;
     use crate::phong::real::V3;
+    use crate::phong::reference::reference_intersect;
+    use glam::DVec3;
+    use proptest::prelude::*;
+
+    /// Whether an answer is certified (by either certificate).
+    fn certified(o: TestOutcome) -> bool {
+        matches!(o, TestOutcome::CertifiedHit | TestOutcome::CertifiedMiss)
+    }
+
+    /// Case `c`'s ray moved sideways by `side` (in patch sizes), in f32: the patch and the ray.
+    fn f32_ray(c: &Case, side: f64) -> (Patch<f32>, V3<f32>, V3<f32>) {
+        let off = c.dir.any_orthonormal_vector() * side * c.size;
+        let p: Patch<f32> = Patch::new(c.p, c.n, c.alpha);
+        (p, V3::from(c.org + off).cast::<f32>(), V3::from(c.dir).cast::<f32>())
+    }
+
+    /// The det-sign certificate settles rays that the positive-definite one leaves to the
+    /// analytic method (patches that curve away from the ray without folding), hits and misses
+    /// both, with the analytic method's answers; where the positive-definite certificate holds,
+    /// the answer is the same bit for bit (it is tried first, so the packet kernel, which has
+    /// only that one, still agrees with the one-ray path).
+    #[test]
+    fn det_sign_settles_what_the_positive_definite_certificate_leaves() {
+        let mut rng = SplitMix(41);
+        let (mut hits, mut misses, mut refused) = (0, 0, 0);
+        for i in 0..20_000 {
+            let cat = [Category::RandomCurved, Category::StronglyCurved][i % 2];
+            let c = generate(&mut rng, cat);
+            let (p, o, d) = f32_ray(&c, rng.range(-0.7, 0.7));
+            let inf = f32::INFINITY;
+            let (h, outcome) = intersect_traced(&p, o, d, 0.0, inf, Method::Certified);
+            let (h_pd, outcome_pd) = intersect_traced(&p, o, d, 0.0, inf, Method::CertifiedPositiveDefinite);
+            if certified(outcome_pd) {
+                assert_eq!((h, outcome), (h_pd, outcome_pd), "case {i}: {c:?}");
+                continue;
+            }
+            if !certified(outcome) {
+                refused += matches!(outcome, TestOutcome::AnalyticHit | TestOutcome::AnalyticMiss) as usize;
+                continue;
+            }
+            let analytic = intersect(&p, o, d, 0.0, inf, Method::AnalyticPolished);
+            assert_eq!(h.is_some(), analytic.is_some(), "case {i}: det-sign {h:?}, analytic {analytic:?}");
+            if let (Some(a), Some(b)) = (h, analytic) {
+                assert!(((a.t - b.t) / b.t).abs() < 1e-5, "case {i}: t {} vs {}", a.t, b.t);
+                hits += 1;
+            } else {
+                misses += 1;
+            }
+        }
+        assert!(hits > 200 && misses > 200, "det-sign settled {hits} hits and {misses} misses");
+        assert!(refused > 100, "only {refused} rays refused by both certificates");
+    }
+
+    /// A patch that bulges up between its first two corners (normals tilted 45° towards each
+    /// other), seen along that edge through the bulge: the ray enters and leaves it, so the
+    /// projection folds (two roots in the domain). Both certificates must refuse it, and the
+    /// analytic method finds the nearer root, as the reference does, from either side.
+    #[test]
+    fn a_fold_is_refused_and_left_to_the_analytic_method() {
+        let pos = [DVec3::ZERO, DVec3::X, DVec3::Y];
+        let nrm = [DVec3::new(-1.0, 0.0, 1.0), DVec3::new(1.0, 0.0, 1.0), DVec3::Z];
+        let p: Patch<f32> = Patch::new(pos, nrm, 0.75);
+        for (org, dir) in [(DVec3::new(-1.0, 0.05, 0.1), DVec3::X), (DVec3::new(2.0, 0.05, 0.1), -DVec3::X)] {
+            let (o, d) = (V3::from(org).cast::<f32>(), V3::from(dir).cast::<f32>());
+            let lo = (o - p.center) * p.inv_scale;
+            let pr = project(&p, lo, d * p.inv_scale).unwrap();
+            assert!(one_to_one_on_region(&pr).is_none());
+            assert!(det_sign_on_domain(&pr, domain_jacobians(&pr)).is_none());
+            let (hit, outcome) = intersect_traced(&p, o, d, 0.0, f32::INFINITY, Method::Certified);
+            assert_eq!(outcome, TestOutcome::AnalyticHit);
+            let hit = hit.unwrap();
+            let r = reference_intersect(pos, nrm, 0.75, [false; 3], org, dir, 0.0, f64::INFINITY).unwrap();
+            assert!(((hit.t as f64 - r.t) / r.t).abs() < 1e-5, "t {} vs reference {}", hit.t, r.t);
+            // The far root is in the domain too: the reference finds it from beyond the near one.
+            let far = reference_intersect(pos, nrm, 0.75, [false; 3], org, dir, r.t + 1e-3, f64::INFINITY);
+            let far = far.expect("the ray leaves the bulge inside the domain");
+            assert!((far.u - r.u).abs() > 0.3, "roots at u = {} and {}", r.u, far.u);
+        }
+    }
+
+    /// [`det_sign_answers_equal_the_reference`] on one ray: whether the det-sign certificate
+    /// settled it, and if so whether its answer is the reference's.
+    fn check_against_reference(c: &Case, side: f64) -> Result<bool, String> {
+        let (p, o, d) = f32_ray(c, side);
+        let inf = f32::INFINITY;
+        let (h, outcome) = intersect_traced(&p, o, d, 0.0, inf, Method::Certified);
+        let (_, outcome_pd) = intersect_traced(&p, o, d, 0.0, inf, Method::CertifiedPositiveDefinite);
+        if !certified(outcome) || certified(outcome_pd) {
+            return Ok(false);
+        }
+        let r = |x: DVec3| -> DVec3 { V3::from(x).cast::<f32>().to_f64().into() };
+        let (org, dir) = (o.to_f64().into(), d.to_f64().into());
+        let reference =
+            reference_intersect(c.p.map(r), c.n.map(r), c.alpha, [false; 3], org, dir, 0.0, inf.into());
+        let edge = |u: f64, v: f64| u.min(v).min(1.0 - u - v);
+        match (h, reference) {
+            (Some(h), Some(r)) if ((h.t as f64 - r.t) / r.t).abs() >= 1e-5 => {
+                Err(format!("t {} vs {}", h.t, r.t))
+            }
+            (Some(h), None) if edge(h.u.into(), h.v.into()) >= 1e-3 => Err(format!("false hit {h:?}")),
+            (None, Some(r)) if edge(r.u, r.v) >= 1e-3 => Err(format!("false miss, reference {r:?}")),
+            _ => Ok(true),
+        }
+    }
+
+    proptest! {
+        #![proptest_config(ProptestConfig { cases: 200, .. ProptestConfig::default() })]
+
+        /// Where the det-sign certificate settles a ray (the positive-definite one did not),
+        /// the answer is the independent f64 reference's (on the same inputs rounded to f32):
+        /// the same hit or miss, except within rounding of the domain's edge, and `t` within
+        /// the f32 target. Each case draws 64 rays from its seed (the certificate settles about
+        /// one in 30 of them).
+        #[test]
+        fn det_sign_answers_equal_the_reference(seed in 0u64..1_000_000) {
+            let mut rng = SplitMix(seed);
+            for k in 0..64 {
+                let c = generate(&mut rng, [Category::RandomCurved, Category::StronglyCurved][k % 2]);
+                let side = rng.range(-0.7, 0.7);
+                let checked = check_against_reference(&c, side);
+                prop_assert!(checked.is_ok(), "ray {k}: {:?}, case {c:?}, side {side}", checked);
+            }
+        }
+    }
+
+    /// The proptest above checks rays: enough of them are settled by the det-sign certificate.
+    #[test]
+    fn det_sign_settles_enough_rays_for_the_reference_check() {
+        let mut rng = SplitMix(5);
+        let mut settled = 0;
+        for k in 0..64 * 200 {
+            let c = generate(&mut rng, [Category::RandomCurved, Category::StronglyCurved][k % 2]);
+            let side = rng.range(-0.7, 0.7);
+            settled += check_against_reference(&c, side).unwrap() as usize;
+        }
+        assert!(settled > 200, "only {settled} of {} rays settled by the det-sign certificate", 64 * 200);
+    }
 
     /// A ray aimed at the surface's continuation beyond `R` (at `(u, v) = (-0.1, 0.55)`, left of
     /// the edge `u = 0`) from above the middle of the patch: Newton's iteration converges to

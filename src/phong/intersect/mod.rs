@@ -2,18 +2,20 @@
 //! Newton polish, a certified Newton method, and a plain Newton–Raphson intersector for
 //! comparison.
 //!
-//! The stages, each in its own module: `poly` (quadratic and cubic solvers), `conic` (the
-//! ray's planes, the projected conics, splitting a degenerate conic, line–conic), `hull` (the
-//! bounds and prism rejection), `analytic` (enumerate the pencil's degenerate members, split
-//! them into lines, offer the roots), `certified` (the one-to-one certificate and Newton in the
-//! plane), `lanes` (the certified method on 8 rays at once), `newton` (Newton in space),
-//! `domain` (the triangle's tolerances, the clamp and the on-the-ray test) and `retry` (the f64
-//! retry). [`intersect`] below dispatches between them, compiled twice by `dispatch`: for
-//! baseline x86-64 and for x86-64-v3 (AVX2 and FMA), the one the CPU runs chosen at run time.
+//! The stages, each in its own module: `poly` (quadratic and cubic solvers), `conic` (the ray's
+//! planes, the projected conics, splitting a degenerate conic, line–conic), `hull` (the bounds and
+//! prism rejection), `analytic` (enumerate the pencil's degenerate members, split them into lines,
+//! offer the roots), `certified` (the one-to-one certificates and Newton in the plane), `detsign`
+//! (the certificate that `det J` keeps one sign), `lanes` (the certified method on 8 rays at once),
+//! `newton` (Newton in space), `domain` (the triangle's tolerances, the clamp and the on-the-ray
+//! test) and `retry` (the f64 retry). [`intersect`] below dispatches between them, compiled twice
+//! by `dispatch`: for baseline x86-64 and for x86-64-v3 (AVX2 and FMA), the one the CPU runs
+//! chosen at run time.
 
 mod analytic;
 mod certified;
 mod conic;
+mod detsign;
 mod dispatch;
 mod domain;
 mod hull;
@@ -28,7 +30,7 @@ pub use poly::{solve_cubic, solve_quadratic};
 use super::patch::Patch;
 use super::real::{Real, V3};
 use analytic::{analytic_local, analytic_projected};
-use certified::certified_newton;
+use certified::{certified_newton, Proofs};
 use conic::project;
 use domain::domain_tolerance;
 use hull::hits_hull;
@@ -57,8 +59,13 @@ pub enum Method {
     Newton,
     /// Newton–Raphson where a cheap certificate proves the ray meets the patch at most once near
     /// the triangle (so a converged root is *the* answer), the polished analytic method
-    /// elsewhere: as exact as `AnalyticPolished`, faster on most rays (the render path).
+    /// elsewhere: as exact as `AnalyticPolished`, faster on most rays (the render path). The
+    /// certificate is the positive-definite one, and where it fails the det-sign one (`det J`
+    /// keeps one sign on the region).
     Certified,
+    /// [`Method::Certified`] with the positive-definite certificate alone, as before the det-sign
+    /// certificate: the same answers, more of them from the analytic method (for comparison).
+    CertifiedPositiveDefinite,
 }
 
 /// Which path a ray–patch test took: what [`intersect_traced`] reports, for profiling.
@@ -184,13 +191,16 @@ fn intersect_with<T: Real, const FMA: bool>(
             let hit = analytic_local(p, o, d, tmin, tmax, false).0;
             (hit, if hit.is_some() { TestOutcome::AnalyticHit } else { TestOutcome::AnalyticMiss })
         }
-        Method::AnalyticPolished => polished(p, (org, dir), o, d, tmin, tmax, false),
-        Method::Certified => polished(p, (org, dir), o, d, tmin, tmax, true),
+        Method::AnalyticPolished => polished(p, (org, dir), o, d, tmin, tmax, None),
+        Method::Certified => polished(p, (org, dir), o, d, tmin, tmax, Some(Proofs::WithDetSign)),
+        Method::CertifiedPositiveDefinite => {
+            polished(p, (org, dir), o, d, tmin, tmax, Some(Proofs::PositiveDefinite))
+        }
         Method::Newton => (newton_local(p, o, d, tmin, tmax, domain_tolerance::<T>()), TestOutcome::Newton),
     }
 }
 
-/// [`Method::AnalyticPolished`], or [`Method::Certified`] when `certify`, on the local ray
+/// [`Method::AnalyticPolished`], or a certified method when `certify` names its proofs, on the local ray
 /// `(o, d)`, with the f64 retry from the world-space ray `world`. Inlined, so that the certified
 /// path is compiled into each version of [`dispatch`].
 #[inline(always)]
@@ -201,12 +211,12 @@ fn polished<T: Real>(
     d: V3<T>,
     tmin: T,
     tmax: T,
-    certify: bool,
+    certify: Option<Proofs>,
 ) -> (Option<PatchHit<T>>, TestOutcome) {
     let (org, dir) = world;
     let Some(pr) = project(p, o, d) else { return (None, TestOutcome::BadInput) };
-    if certify {
-        if let Some(answer) = certified_newton(p, o, d, &pr, tmin, tmax) {
+    if let Some(proofs) = certify {
+        if let Some(answer) = certified_newton(p, o, d, &pr, tmin, tmax, proofs) {
             // A proven miss is proven only to the f32 parameter error, which a sliver seen from
             // afar makes wider than the domain's tolerance band.
             if answer.is_none() && sliver_from_afar(p, o) {
