@@ -558,3 +558,57 @@ fn a_user_hit_outside_the_ray_interval_is_refused_and_counted() {
         assert_eq!(refused, if hit { 0 } else { 2 }, "t = {t}");
     }
 }
+
+/// A filter that rejects every candidate it is shown.
+unsafe extern "C" fn reject_all(args: *const sys::RTCFilterFunctionNArguments) {
+    let a = &*args;
+    for lane in 0..a.N as usize {
+        *a.valid.add(lane) = 0;
+    }
+}
+
+#[test]
+fn a_filter_rejecting_every_candidate_leaves_the_hit_of_another_geometry_whole() {
+    // Geometry 0: an octahedron; geometry 1: the same, a little nearer to the rays' origins,
+    // with a filter that rejects all its candidates. Whichever Embree visits first, every answer
+    // (single rays and 8-ray packets, hit fields and occlusion) must be geometry 0's alone.
+    let device = Device::new().unwrap();
+    let (p, i) = octahedron();
+    let mut both = Scene::new(&device).unwrap();
+    let mut alone = Scene::new(&device).unwrap();
+    let tris =
+        |shift: Vec3| UserTriangles { positions: p.iter().map(|&q| q + shift).collect(), indices: i.clone() };
+    assert_eq!(both.attach_user(tris(Vec3::ZERO), GeometryOptions::default()).unwrap(), 0);
+    let id = both.attach_user(tris(Vec3::splat(0.3)), GeometryOptions::default()).unwrap();
+    // SAFETY (test): as in `filter_out_even`.
+    unsafe {
+        let g = sys::rtcGetGeometry(both.raw(), id);
+        sys::rtcSetGeometryIntersectFilterFunction(g, Some(reject_all));
+        sys::rtcSetGeometryOccludedFilterFunction(g, Some(reject_all));
+        sys::rtcCommitGeometry(g);
+    }
+    alone.attach_user(tris(Vec3::ZERO), GeometryOptions::default()).unwrap();
+    let (both, alone) = (both.commit().unwrap(), alone.commit().unwrap());
+    let rays = rays(4000);
+    let mut hits = 0;
+    for r in &rays {
+        let want = alone.intersect1(*r);
+        hits += want.is_some() as usize;
+        assert_eq!(both.intersect1(*r), want, "{r:?}");
+        assert_eq!(both.occluded1(*r), alone.occluded1(*r), "{r:?}");
+    }
+    assert!(hits > 1000, "{hits} hits");
+    for chunk in rays.chunks_exact(8) {
+        let rays: [Ray; 8] = chunk.try_into().unwrap();
+        for coherent in [false, true] {
+            assert_eq!(
+                both.intersect8_rays(&rays, 0xff, coherent),
+                alone.intersect8_rays(&rays, 0xff, coherent)
+            );
+            assert_eq!(
+                both.occluded8_rays(&rays, 0xff, coherent),
+                alone.occluded8_rays(&rays, 0xff, coherent)
+            );
+        }
+    }
+}

@@ -33,12 +33,12 @@ impl UserPrimitives for PhongMesh {
         self.patches().get(item as usize)?.bounds_f32()
     }
 
-    #[inline]
+    #[inline(always)]
     fn intersect(&self, item: u32, org: Vec3, dir: Vec3, tnear: f32, tfar: f32) -> Option<PrimHit> {
         self.intersect_primitive(item, org, dir, tnear, tfar, |_| {})
     }
 
-    #[inline]
+    #[inline(always)]
     fn intersect_from(
         &self,
         item: u32,
@@ -56,33 +56,40 @@ impl UserPrimitives for PhongMesh {
     /// lane by lane: there the lane kernel measured more instructions per ray than the scalar
     /// path (sphere-120 +7%, the head -0.6%; scripts/instructions.sh), its lanes mostly turned
     /// away by the hull or settled by the origin skip.
+    #[allow(clippy::needless_range_loop)] // lane loops index several arrays by the lane
     fn intersect_packet(&self, item: u32, rays: &PacketRays, hits: &mut [Option<PrimHit>; MAX_PACKET]) {
-        if rays.active_lanes().any(|i| rays.origin[i].is_some()) {
-            for i in rays.active_lanes() {
-                let (org, dir, tnear, tfar) = rays.ray(i);
-                hits[i] = self.intersect_primitive_from(item, rays.origin[i], org, dir, tnear, tfar, |_| {});
+        let n = rays.n.min(MAX_PACKET);
+        if (0..n).any(|i| rays.active[i] && rays.origin[i].is_some()) {
+            for i in 0..n {
+                if rays.active[i] {
+                    let (org, dir, tnear, tfar) = rays.ray(i);
+                    hits[i] =
+                        self.intersect_primitive_from(item, rays.origin[i], org, dir, tnear, tfar, |_| {});
+                }
             }
             return;
         }
-        for start in (0..rays.n.min(MAX_PACKET)).step_by(LANES) {
-            let lane = |i: usize| start + i;
-            let active: [bool; LANES] = std::array::from_fn(|i| lane(i) < rays.n && rays.active[lane(i)]);
-            if !active.iter().any(|&a| a) {
+        // Blocks of LANES from lanes 0 and 8: lanes past the packet's width are inactive zeros
+        // in `rays` (their answers are dropped).
+        for start in (0..n).step_by(LANES) {
+            let lanes = start..start + LANES;
+            let active: [bool; LANES] = rays.active[lanes.clone()].try_into().unwrap_or([false; LANES]);
+            if !active.contains(&true) {
                 continue;
             }
-            // Lanes past the packet's width read as inactive zeros (their answers are dropped).
-            let field =
-                |a: &[f32; MAX_PACKET]| std::array::from_fn(|i| a.get(lane(i)).copied().unwrap_or(0.0));
+            let field = |a: &[f32; MAX_PACKET]| a[lanes.clone()].try_into().unwrap_or([0.0; LANES]);
             let block = LaneRays {
                 org: [field(&rays.org[0]), field(&rays.org[1]), field(&rays.org[2])],
                 dir: [field(&rays.dir[0]), field(&rays.dir[1]), field(&rays.dir[2])],
                 tmin: field(&rays.tnear),
                 tmax: field(&rays.tfar),
             };
-            let origin = std::array::from_fn(|i| rays.origin.get(lane(i)).copied().flatten());
+            let origin = rays.origin[lanes.clone()].try_into().unwrap_or([None; LANES]);
             let found = self.intersect_lanes(item, &block, active, &origin);
-            for i in (0..LANES).filter(|&i| active[i]) {
-                hits[lane(i)] = found[i];
+            for i in 0..LANES {
+                if active[i] {
+                    hits[start + i] = found[i];
+                }
             }
         }
     }

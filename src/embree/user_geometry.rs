@@ -2,14 +2,16 @@
 //! for any packet width N, with filter invocation as in Embree's user_geometry tutorial.
 //!
 //! A [`UserPrimitives`] implementation supplies per-primitive bounds and a ray test in Rust;
-//! this module owns the FFI: it reads rays from Embree's SOA layout, calls the test, and for
-//! each candidate hit copies the instance ID stack, sets `tfar`, invokes the user's filter
-//! functions, and accepts or restores. No panic crosses into Embree: every callback body runs
+//! this module owns the FFI: it reads rays from Embree's SOA layout, calls the test, and offers
+//! each candidate hit to the geometry's filter in a hit packet of its own (with the instance ID
+//! stack copied and `tfar` set to it), then copies it to the ray's hit if accepted or restores
+//! `tfar` if not. No panic crosses into Embree: every callback body runs
 //! in `catch_unwind`, and the panic is resumed in the Rust caller of the query, or reported by
 //! `commit` (see `src/embree/panic.rs`).
 
 use std::cell::Cell;
 use std::ffi::c_void;
+use std::mem::MaybeUninit;
 use std::sync::atomic::{AtomicU64, Ordering};
 use std::sync::Arc;
 
@@ -171,12 +173,12 @@ impl<T: UserPrimitives> UserPrimitives for Arc<T> {
         (**self).bounds(prim)
     }
 
-    #[inline]
+    #[inline(always)]
     fn intersect(&self, prim: u32, org: Vec3, dir: Vec3, tnear: f32, tfar: f32) -> Option<PrimHit> {
         (**self).intersect(prim, org, dir, tnear, tfar)
     }
 
-    #[inline]
+    #[inline(always)]
     fn intersect_from(
         &self,
         prim: u32,
@@ -189,7 +191,7 @@ impl<T: UserPrimitives> UserPrimitives for Arc<T> {
         (**self).intersect_from(prim, origin, org, dir, tnear, tfar)
     }
 
-    #[inline]
+    #[inline(always)]
     fn intersect_packet(&self, prim: u32, rays: &PacketRays, hits: &mut [Option<PrimHit>; MAX_PACKET]) {
         (**self).intersect_packet(prim, rays, hits)
     }
@@ -276,6 +278,7 @@ struct LaneRay {
 
 /// # Safety
 /// `ray` must be an RTCRayN of width `ray.n` and `lane < ray.n`.
+#[inline(always)]
 unsafe fn read_ray(ray: Soa, lane: usize) -> LaneRay {
     // SAFETY: the ray fields are among the 12 of an RTCRayN of width n, lane < n (contract).
     unsafe {
@@ -290,14 +293,8 @@ unsafe fn read_ray(ray: Soa, lane: usize) -> LaneRay {
 
 /// # Safety
 /// `hit` must be an RTCHitN of width `hit.n`, `lane < hit.n`, `context` a valid query context.
-unsafe fn write_hit(
-    hit: Soa,
-    lane: usize,
-    h: &PrimHit,
-    prim: u32,
-    geom: u32,
-    context: *const sys::RTCRayQueryContext,
-) {
+#[inline(always)]
+unsafe fn write_hit(hit: Soa, lane: usize, h: &PrimHit, geom: u32, context: *const sys::RTCRayQueryContext) {
     // SAFETY: every field written is one of the HIT_FIELDS of an RTCHitN of width n, lane < n,
     // and `context` is a valid query context (this function's contract).
     unsafe {
@@ -306,7 +303,7 @@ unsafe fn write_hit(
         hit.set_f(HIT_NG + 2, lane, h.ng.z);
         hit.set_f(HIT_U, lane, h.u);
         hit.set_f(HIT_V, lane, h.v);
-        hit.set_u(HIT_PRIM, lane, prim);
+        hit.set_u(HIT_PRIM, lane, h.prim);
         hit.set_u(HIT_GEOM, lane, geom);
         let ctx = &*context;
         for l in 0..MAX_INSTANCE_LEVEL_COUNT {
@@ -334,12 +331,159 @@ const MAX_CANDIDATES: usize = 32;
 const MAX_N: usize = MAX_PACKET;
 
 /// Per-lane valid mask with only `lane` active, for invoking filters on one candidate.
+#[inline(always)]
 fn lane_mask(n: usize, lane: usize) -> [i32; MAX_N] {
     let mut m = [0i32; MAX_N];
     if lane < n {
         m[lane] = -1;
     }
     m
+}
+
+// ---------------------------------------------------------------------------------------------
+// Candidates and the filters.
+//
+// Embree 4 runs no filter on a user geometry's hits by itself: "the intersection filter function
+// needs to be invoked by the user geometry intersection callback for each encountered
+// intersection" (rtcSetGeometryIntersectFunction docs; likewise for occlusion), through
+// rtcInvoke{Intersect,Occluded}FilterFromGeometry, which invokes "the intersection filter
+// registered to the geometry" and nothing else. Whether one is registered cannot be asked
+// through Embree's API (the caller's own code may set one on the geometry handle at any time):
+// the invoke call is where Embree tests it (kernels/common/rtcore.cpp, 4.4:
+// `if (args->geometry->intersectionFilterN) ...`), so every candidate goes through that call,
+// a call and one test when no filter is set. The filter of the query's arguments
+// (RTCIntersectArguments::filter, enabled by RTC_RAY_QUERY_FLAG_INVOKE_ARGUMENT_FILTER or
+// rtcSetGeometryEnableFilterFunctionFromArguments) never runs for a user geometry: Embree 4 does
+// not pass the arguments to the callback, and its release notes leave invoking it "manually" to
+// an application that knows it; this geometry does not.
+//
+// What is left out is the rest of the route around the call: the candidate is written to a hit
+// packet of our own, as the tutorial's `potentialHit` (user_geometry_device.cpp), not to the
+// ray's hit, which is "undefined and should not be read" on entry (rtcSetGeometryIntersectFunction
+// docs): it is never read, and written once, when the candidate is accepted. A rejection restores
+// only the `tfar` the filter saw.
+
+/// A hit packet of our own, `n` lanes wide, that the filters see a candidate in; zeroed when the
+/// first candidate needs it (most calls find none).
+struct Candidates {
+    buf: MaybeUninit<HitBuf>,
+    n: usize,
+    ready: bool,
+}
+
+/// A stack RTCHitN of up to 16 lanes with the alignment Embree's packet types use.
+#[repr(C, align(64))]
+struct HitBuf([u32; HIT_FIELDS * MAX_N]);
+
+impl Candidates {
+    #[inline(always)]
+    fn new(n: usize) -> Self {
+        Candidates { buf: MaybeUninit::uninit(), n: n.min(MAX_N), ready: false }
+    }
+
+    /// The buffer as an RTCHitN of width `n`, every field of its `n` lanes initialised.
+    #[inline(always)]
+    fn soa(&mut self) -> Soa {
+        let base = self.buf.as_mut_ptr() as *mut u32;
+        if !self.ready {
+            // SAFETY: the buffer holds HIT_FIELDS * MAX_N values and n <= MAX_N.
+            unsafe { base.write_bytes(0, HIT_FIELDS * self.n) };
+            self.ready = true;
+        }
+        Soa { base, n: self.n }
+    }
+}
+
+/// Where the candidate hits of a callback go: offered to the filters, and kept when accepted.
+trait Offer {
+    /// Offer lane `lane`'s candidate `h` on the ray `r`: whether the filters accepted it.
+    ///
+    /// # Safety
+    /// `lane` is below the width of the packet the offer was made for.
+    unsafe fn offer(&mut self, lane: usize, r: &LaneRay, h: &PrimHit) -> bool;
+}
+
+/// The candidates of an intersect callback: an accepted one becomes the ray's hit.
+struct IntersectOffer {
+    args: *const sys::RTCIntersectFunctionNArguments,
+    ray: Soa,
+    hit: Soa,
+    cand: Candidates,
+}
+
+impl Offer for IntersectOffer {
+    #[inline(always)]
+    unsafe fn offer(&mut self, lane: usize, r: &LaneRay, h: &PrimHit) -> bool {
+        // SAFETY: `args` is the intersect callback's argument block, `ray` and `hit` the two
+        // parts of its RTCRayHitN of width n, `cand` our own RTCHitN of width n, lane < n
+        // (contract). The filter sees the candidate with the ray's tfar set to it.
+        unsafe {
+            let a = &*self.args;
+            let cand = self.cand.soa();
+            write_hit(cand, lane, h, a.geomID, a.context);
+            self.ray.set_f(RAY_TFAR, lane, h.t);
+            let mut mask = lane_mask(self.ray.n, lane);
+            let fargs = sys::RTCFilterFunctionNArguments {
+                valid: mask.as_mut_ptr(),
+                geometryUserPtr: a.geometryUserPtr,
+                context: a.context,
+                ray: a.rayhit as *mut sys::RTCRayN,
+                hit: cand.base as *mut sys::RTCHitN,
+                N: a.N,
+            };
+            // `fargs` describes the ray packet with one lane active and the candidate in our
+            // hit packet; the geometry's filter may clear the lane or change the candidate
+            // (rtcInvokeIntersectFilterFromGeometry docs: "only rays that are still valid
+            // ... should update a hit").
+            sys::rtcInvokeIntersectFilterFromGeometry(self.args, &fargs);
+            if mask[lane] != -1 {
+                self.ray.set_f(RAY_TFAR, lane, r.tfar);
+                return false;
+            }
+            for k in 0..HIT_FIELDS {
+                self.hit.set_u(k, lane, cand.u(k, lane));
+            }
+            true
+        }
+    }
+}
+
+/// The candidates of an occluded callback: an accepted one occludes the ray.
+struct OccludedOffer {
+    args: *const sys::RTCOccludedFunctionNArguments,
+    ray: Soa,
+    cand: Candidates,
+}
+
+impl Offer for OccludedOffer {
+    #[inline(always)]
+    unsafe fn offer(&mut self, lane: usize, r: &LaneRay, h: &PrimHit) -> bool {
+        // SAFETY: as in `IntersectOffer::offer`, with `ray` the callback's RTCRayN.
+        unsafe {
+            let a = &*self.args;
+            let cand = self.cand.soa();
+            write_hit(cand, lane, h, a.geomID, a.context);
+            self.ray.set_f(RAY_TFAR, lane, h.t);
+            let mut mask = lane_mask(self.ray.n, lane);
+            let fargs = sys::RTCFilterFunctionNArguments {
+                valid: mask.as_mut_ptr(),
+                geometryUserPtr: a.geometryUserPtr,
+                context: a.context,
+                ray: a.ray,
+                hit: cand.base as *mut sys::RTCHitN,
+                N: a.N,
+            };
+            // As in `IntersectOffer::offer` (rtcInvokeOccludedFilterFromGeometry docs).
+            sys::rtcInvokeOccludedFilterFromGeometry(self.args, &fargs);
+            if mask[lane] != -1 {
+                self.ray.set_f(RAY_TFAR, lane, r.tfar);
+                return false;
+            }
+            // Occluded: Embree's convention is tfar = -inf.
+            self.ray.set_f(RAY_TFAR, lane, f32::NEG_INFINITY);
+            true
+        }
+    }
 }
 
 // ---------------------------------------------------------------------------------------------
@@ -377,38 +521,45 @@ unsafe extern "C" fn intersect_callback<T: UserPrimitives>(args: *const sys::RTC
     let a = unsafe { &*args };
     // SAFETY: as above.
     let data = unsafe { &*(a.geometryUserPtr as *const UserData<T>) };
-    panic::wrap(&data.panics, "intersect", || {
-        // One lane (rtcIntersect1, what the renderer calls) gets its own copy with the width a
-        // constant, so the SOA indexing and the lane loop fold away.
-        match a.N as usize {
-            // SAFETY: `a` is the argument block Embree passed, with its own N.
-            1 => unsafe { intersect_lanes::<T>(args, a, &data.prims, 1) },
+    // One lane (rtcIntersect1, what the renderer calls) and eight (rtcIntersect8, its packets)
+    // get their own copies with the width a constant, so the SOA indexing and the lane loops
+    // fold away; each under its own `wrap`, so that the one-lane body stays small enough to be
+    // inlined there.
+    let prims = &data.prims;
+    match a.N as usize {
+        // SAFETY: `a` is the argument block Embree passed, with its own N.
+        1 => panic::wrap(&data.panics, "intersect", || unsafe { intersect_lanes::<T>(args, a, prims, 1) }),
+        // SAFETY: as above.
+        8 => panic::wrap(&data.panics, "intersect", || unsafe { intersect_lanes::<T>(args, a, prims, 8) }),
+        n @ 2..=MAX_N => {
             // SAFETY: as above.
-            n @ 2..=MAX_N => unsafe { intersect_lanes::<T>(args, a, &data.prims, n) },
-            _ => {}
+            panic::wrap(&data.panics, "intersect", || unsafe { intersect_lanes::<T>(args, a, prims, n) })
         }
-    });
+        _ => None,
+    };
 }
 
-/// Offer each active lane's candidate hits on `prim`, nearest first, to `offer(lane, ray, hit)`,
-/// which returns whether the filters accepted it. A primitive can be crossed several times:
-/// after a rejected candidate, look beyond it (at most [`MAX_CANDIDATES`]: 4 roots for each of
-/// a cluster's 8 patches, the resultant of a line and a quadratic patch being a quartic). A
+/// Offer each active lane's candidate hits on `prim`, nearest first, to `offer`, which says
+/// whether the filters accepted each. A primitive can be crossed several times: after a
+/// rejected candidate, look beyond it (at most [`MAX_CANDIDATES`]: 4 roots for each of a
+/// cluster's 8 patches, the resultant of a line and a quadratic patch being a quartic). A
 /// rejection restores the lane's `tfar`, so its value read here holds. `origin(lane)` is where
 /// the lane's ray starts on this geometry, if known (occlusion rays of [`CommittedScene::occluded1_from`]).
 /// One lane is tested alone; a packet's first candidates come from
 /// [`UserPrimitives::intersect_packet`], all its lanes (and their origins) at once.
 ///
 /// # Safety
-/// `ray` must be an RTCRayN (or the ray part of an RTCRayHitN) of width `valid.len()`.
+/// `ray` must be an RTCRayN (or the ray part of an RTCRayHitN) of width `valid.len()`, and
+/// `offer` made for that packet.
 #[inline(always)]
+#[allow(clippy::needless_range_loop)] // lane loops index several arrays by the lane
 unsafe fn for_each_candidate<T: UserPrimitives>(
     data: &T,
     prim: u32,
     valid: &[i32],
     ray: Soa,
     origin: impl Fn(usize) -> Option<OriginPrim>,
-    mut offer: impl FnMut(usize, &LaneRay, &PrimHit) -> bool,
+    offer: &mut impl Offer,
 ) {
     if valid.len() == 1 {
         if valid[0] == -1 {
@@ -416,12 +567,14 @@ unsafe fn for_each_candidate<T: UserPrimitives>(
             let r = unsafe { read_ray(ray, 0) };
             let from = origin(0);
             let first = data.intersect_from(prim, from, r.org, r.dir, r.tnear, r.tfar);
-            offer_candidates(data, prim, 0, from, &r, first, &mut offer);
+            // SAFETY: lane 0 < n (contract).
+            unsafe { offer_candidates(data, prim, 0, from, &r, first, offer) };
         }
         return;
     }
+    let mut rays = NO_RAYS;
     // SAFETY: the layout is RTCRayN of width valid.len() (this function's contract).
-    let mut rays = unsafe { read_packet(ray, valid) };
+    unsafe { read_packet(ray, valid, &mut rays) };
     for lane in 0..rays.n {
         if rays.active[lane] {
             rays.origin[lane] = origin(lane);
@@ -429,24 +582,29 @@ unsafe fn for_each_candidate<T: UserPrimitives>(
     }
     let mut hits = [None; MAX_N];
     data.intersect_packet(prim, &rays, &mut hits);
-    for lane in rays.active_lanes() {
+    for lane in 0..rays.n {
+        let (true, Some(first)) = (rays.active[lane], hits[lane]) else { continue };
         let (org, dir, tnear, tfar) = rays.ray(lane);
         let r = LaneRay { org, dir, tnear, tfar };
-        offer_candidates(data, prim, lane, rays.origin[lane], &r, hits[lane], &mut offer);
+        // SAFETY: lane < n (contract).
+        unsafe { offer_candidates(data, prim, lane, rays.origin[lane], &r, Some(first), offer) };
     }
 }
 
 /// Offer `first`, lane `lane`'s nearest hit on `prim`, then (while the filters reject) the
 /// next ones beyond it, as [`for_each_candidate`] describes.
+///
+/// # Safety
+/// As for [`Offer::offer`].
 #[inline(always)]
-fn offer_candidates<T: UserPrimitives>(
+unsafe fn offer_candidates<T: UserPrimitives>(
     data: &T,
     prim: u32,
     lane: usize,
     from: Option<OriginPrim>,
     r: &LaneRay,
     first: Option<PrimHit>,
-    offer: &mut impl FnMut(usize, &LaneRay, &PrimHit) -> bool,
+    offer: &mut impl Offer,
 ) {
     let (mut next, mut tnear) = (first, r.tnear);
     for _ in 0..MAX_CANDIDATES {
@@ -458,7 +616,8 @@ fn offer_candidates<T: UserPrimitives>(
             OUT_OF_RANGE.fetch_add(1, Ordering::Relaxed);
             break;
         }
-        if offer(lane, r, &h) {
+        // SAFETY: lane is within the offer's packet (contract).
+        if unsafe { offer.offer(lane, r, &h) } {
             break;
         }
         tnear = h.t;
@@ -467,31 +626,49 @@ fn offer_candidates<T: UserPrimitives>(
 }
 
 /// The rays of a packet of width `valid.len()` (at most [`MAX_N`]), the lanes `valid` marks
-/// active (Embree's `-1`).
+/// active (Embree's `-1`), the other lanes' fields zero, written to `p` (zeroed by the caller).
 ///
 /// # Safety
 /// `ray` must be an RTCRayN of width `valid.len()`.
-unsafe fn read_packet(ray: Soa, valid: &[i32]) -> PacketRays {
+#[inline(always)]
+#[allow(clippy::needless_range_loop)] // lane loops index several arrays by the lane
+unsafe fn read_packet(ray: Soa, valid: &[i32], p: &mut PacketRays) {
     let n = valid.len().min(MAX_N);
-    let mut p = PacketRays {
-        n,
-        active: [false; MAX_N],
-        org: [[0.0; MAX_N]; 3],
-        dir: [[0.0; MAX_N]; 3],
-        tnear: [0.0; MAX_N],
-        tfar: [0.0; MAX_N],
-        origin: [None; MAX_N],
-    };
-    for (lane, _) in valid.iter().enumerate().take(n).filter(|(_, &v)| v == -1) {
-        // SAFETY: lane < n and the layout is RTCRayN of width n (this function's contract).
-        let r = unsafe { read_ray(ray, lane) };
-        p.active[lane] = true;
-        (p.org[0][lane], p.org[1][lane], p.org[2][lane]) = (r.org.x, r.org.y, r.org.z);
-        (p.dir[0][lane], p.dir[1][lane], p.dir[2][lane]) = (r.dir.x, r.dir.y, r.dir.z);
-        (p.tnear[lane], p.tfar[lane]) = (r.tnear, r.tfar);
+    p.n = n;
+    for lane in 0..n {
+        p.active[lane] = valid[lane] == -1;
     }
-    p
+    // Field by field, every lane read and the inactive ones zeroed: loops over the lanes that
+    // the compiler vectorises (Embree's own packet traversal loads every lane of these fields).
+    for (k, field) in
+        [RAY_ORG, RAY_ORG + 1, RAY_ORG + 2, RAY_DIR, RAY_DIR + 1, RAY_DIR + 2, RAY_TNEAR, RAY_TFAR]
+            .into_iter()
+            .enumerate()
+    {
+        let out = match k {
+            0..=2 => &mut p.org[k],
+            3..=5 => &mut p.dir[k - 3],
+            6 => &mut p.tnear,
+            _ => &mut p.tfar,
+        };
+        for lane in 0..n {
+            // SAFETY: lane < n and the layout is RTCRayN of width n (this function's contract).
+            let x = unsafe { ray.f(field, lane) };
+            out[lane] = if p.active[lane] { x } else { 0.0 };
+        }
+    }
 }
+
+/// A packet of no rays, for [`read_packet`] to fill.
+const NO_RAYS: PacketRays = PacketRays {
+    n: 0,
+    active: [false; MAX_N],
+    org: [[0.0; MAX_N]; 3],
+    dir: [[0.0; MAX_N]; 3],
+    tnear: [0.0; MAX_N],
+    tfar: [0.0; MAX_N],
+    origin: [None; MAX_N],
+};
 
 /// The body of [`intersect_callback`] for packet width `n`.
 ///
@@ -510,43 +687,11 @@ unsafe fn intersect_lanes<T: UserPrimitives>(
     let ray = Soa { base: a.rayhit as *mut u32, n };
     // SAFETY: the hit part of an RTCRayHitN starts after the 12 ray fields (rtcore_ray.h).
     let hit = Soa { base: unsafe { ray.base.add(RAY_FIELDS * n) }, n };
-    let offer = |lane: usize, r: &LaneRay, h: &PrimHit| {
-        // SAFETY: lane < n in an RTCRayHitN of width n; we save every field we overwrite to
-        // restore on rejection.
-        unsafe {
-            let saved: [u32; HIT_FIELDS] = std::array::from_fn(|k| hit.u(k, lane));
-            ray.set_f(RAY_TFAR, lane, h.t);
-            write_hit(hit, lane, h, h.prim, a.geomID, a.context);
-            let mut mask = lane_mask(n, lane);
-            let fargs = sys::RTCFilterFunctionNArguments {
-                valid: mask.as_mut_ptr(),
-                geometryUserPtr: a.geometryUserPtr,
-                context: a.context,
-                ray: a.rayhit as *mut sys::RTCRayN,
-                hit: hit.base as *mut sys::RTCHitN,
-                N: a.N,
-            };
-            // `fargs` describes this very ray-hit packet with one lane active; Embree calls
-            // the geometry's and the arguments' filters, which may clear the lane
-            // (rtcInvokeIntersectFilterFromGeometry docs).
-            sys::rtcInvokeIntersectFilterFromGeometry(args, &fargs);
-            if mask[lane] == -1 {
-                return true; // accepted
-            }
-            for (k, s) in saved.iter().enumerate() {
-                hit.set_u(k, lane, *s);
-            }
-            ray.set_f(RAY_TFAR, lane, r.tfar);
-            false
-        }
-    };
-    // SAFETY: `ray` is the ray part of the packet Embree passed, of width n.
-    unsafe { for_each_candidate(data, a.primID, valid, ray, |_| None, offer) }
+    let mut offer = IntersectOffer { args, ray, hit, cand: Candidates::new(n) };
+    // SAFETY: `ray` is the ray part of the packet Embree passed, of width n, and the offer is
+    // made for it.
+    unsafe { for_each_candidate(data, a.primID, valid, ray, |_| None, &mut offer) }
 }
-
-/// A stack RTCHitN of up to 16 lanes with the alignment Embree's packet types use.
-#[repr(C, align(64))]
-struct HitBuf([u32; HIT_FIELDS * MAX_N]);
 
 unsafe extern "C" fn occluded_callback<T: UserPrimitives>(args: *const sys::RTCOccludedFunctionNArguments) {
     // SAFETY: as in `intersect_callback`, with `ray` an RTCRayN of width N
@@ -554,16 +699,19 @@ unsafe extern "C" fn occluded_callback<T: UserPrimitives>(args: *const sys::RTCO
     let a = unsafe { &*args };
     // SAFETY: as above.
     let data = unsafe { &*(a.geometryUserPtr as *const UserData<T>) };
-    panic::wrap(&data.panics, "occluded", || {
-        // One lane (rtcOccluded1) gets its own copy, as in `intersect_callback`.
-        match a.N as usize {
-            // SAFETY: `a` is the argument block Embree passed, with its own N.
-            1 => unsafe { occluded_lanes::<T>(args, a, &data.prims, 1) },
+    // One lane and eight get their own copies, as in `intersect_callback`.
+    let prims = &data.prims;
+    match a.N as usize {
+        // SAFETY: `a` is the argument block Embree passed, with its own N.
+        1 => panic::wrap(&data.panics, "occluded", || unsafe { occluded_lanes::<T>(args, a, prims, 1) }),
+        // SAFETY: as above.
+        8 => panic::wrap(&data.panics, "occluded", || unsafe { occluded_lanes::<T>(args, a, prims, 8) }),
+        n @ 2..=MAX_N => {
             // SAFETY: as above.
-            n @ 2..=MAX_N => unsafe { occluded_lanes::<T>(args, a, &data.prims, n) },
-            _ => {}
+            panic::wrap(&data.panics, "occluded", || unsafe { occluded_lanes::<T>(args, a, prims, n) })
         }
-    });
+        _ => None,
+    };
 }
 
 /// The body of [`occluded_callback`] for packet width `n`.
@@ -587,39 +735,10 @@ unsafe fn occluded_lanes<T: UserPrimitives>(
         // query (see `origin_context`).
         unsafe { origin_of(origins?, a.context, a.geomID, ray.u(RAY_ID, lane)) }
     };
-    // The filter's hit buffer, zeroed only once a candidate needs it (most calls find none).
-    let mut buf: Option<HitBuf> = None;
-    let offer = |lane: usize, r: &LaneRay, h: &PrimHit| {
-        // Lazily: building the zeroed buffer is the cost being avoided.
-        #[allow(clippy::unnecessary_lazy_evaluations)]
-        let hit = Soa { base: buf.get_or_insert_with(|| HitBuf([0; HIT_FIELDS * MAX_N])).0.as_mut_ptr(), n };
-        // SAFETY: `hit` is our own HIT_FIELDS x n buffer; the filter sees the candidate
-        // there, with the ray's tfar set to it (restored unless accepted).
-        unsafe {
-            ray.set_f(RAY_TFAR, lane, h.t);
-            write_hit(hit, lane, h, h.prim, a.geomID, a.context);
-            let mut mask = lane_mask(n, lane);
-            let fargs = sys::RTCFilterFunctionNArguments {
-                valid: mask.as_mut_ptr(),
-                geometryUserPtr: a.geometryUserPtr,
-                context: a.context,
-                ray: a.ray,
-                hit: hit.base as *mut sys::RTCHitN,
-                N: a.N,
-            };
-            // As in `intersect_lanes` (rtcInvokeOccludedFilterFromGeometry docs).
-            sys::rtcInvokeOccludedFilterFromGeometry(args, &fargs);
-            if mask[lane] == -1 {
-                // Occluded: Embree's convention is tfar = -inf.
-                ray.set_f(RAY_TFAR, lane, f32::NEG_INFINITY);
-                return true;
-            }
-            ray.set_f(RAY_TFAR, lane, r.tfar);
-            false
-        }
-    };
-    // SAFETY: `ray` is the ray part of the packet Embree passed, of width n.
-    unsafe { for_each_candidate(data, a.primID, valid, ray, origin, offer) }
+    let mut offer = OccludedOffer { args, ray, cand: Candidates::new(n) };
+    // SAFETY: `ray` is the ray part of the packet Embree passed, of width n, and the offer is
+    // made for it.
+    unsafe { for_each_candidate(data, a.primID, valid, ray, origin, &mut offer) }
 }
 
 // ---------------------------------------------------------------------------------------------

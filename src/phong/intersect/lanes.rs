@@ -414,8 +414,14 @@ fn kernel(p: &Patch<f32>, rays: &LaneRays) -> LaneAnswers {
     let (tmin, tmax) = (F(rays.tmin), F(rays.tmax));
     let zero = F::splat(0.0);
     let bad = !(tmin.eq(tmin) & tmax.eq(tmax) & o.finite() & d.finite()) | d.max_abs().eq(zero);
-    let passed = !bad & hull_lanes(p, o, d, tmin, tmax);
     let mut out = LaneAnswers::all(LaneDecision::Miss);
+    // A packet hands over every active lane, those that miss the patch's box included: when
+    // none meets the box, the prism is not clipped (the prism only narrows the interval).
+    let (t0, t1) = box_lanes(p, o, d, tmin, tmax);
+    if !(!bad & t0.le(t1)).any() {
+        return out;
+    }
+    let passed = !bad & prism_lanes(p, o, d, t0, t1);
     // One lane past the hull costs the scalar path less than all lanes through the stages below.
     match passed.count() {
         0 => return out,
@@ -452,9 +458,9 @@ fn kernel(p: &Patch<f32>, rays: &LaneRays) -> LaneAnswers {
     out
 }
 
-/// `hits_hull` on every lane: clip `(tmin, tmax)` against the bounds and the prism.
+/// `hits_hull`'s first stage on every lane: `(tmin, tmax)` clipped against the bounds.
 #[inline(always)]
-fn hull_lanes(p: &Patch<f32>, o: V, d: V, tmin: F, tmax: F) -> M {
+fn box_lanes(p: &Patch<f32>, o: V, d: V, tmin: F, tmax: F) -> (F, F) {
     let (mut t0, mut t1) = (tmin, tmax);
     let g3 = <f32 as Real>::gamma(3);
     let widen = F::splat(1.0 + g3 + g3);
@@ -469,6 +475,14 @@ fn hull_lanes(p: &Patch<f32>, o: V, d: V, tmin: F, tmax: F) -> M {
         t0 = near.max(t0);
         t1 = (far * widen).min(t1);
     }
+    (t0, t1)
+}
+
+/// `hits_hull`'s second stage on every lane: the interval `(t0, t1)` [`box_lanes`] left,
+/// clipped against the prism, and where it is not empty.
+#[inline(always)]
+fn prism_lanes(p: &Patch<f32>, o: V, d: V, mut t0: F, mut t1: F) -> M {
+    let one = F::splat(1.0);
     let (inf, ninf) = (F::splat(f32::INFINITY), F::splat(f32::NEG_INFINITY));
     let om = o.max_abs();
     let g8 = F::splat(<f32 as Real>::gamma(8));
