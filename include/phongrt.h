@@ -54,8 +54,8 @@
 
 /*
  * The version of this header and of the library it came with. scripts/install.sh writes the
- * workspace's version here (Cargo.toml); these in-tree values are the same (tests/c_install.rs
- * checks that they agree).
+ * workspace's version here (Cargo.toml); these in-tree values are the same
+ * (crates/phongrt-capi/tests/c_install.rs checks that they agree).
  */
 #define PHONGRT_VERSION_MAJOR 0
 #define PHONGRT_VERSION_MINOR 1

@@ -112,7 +112,7 @@ runpath="$(readelf -d "$target/libphongrt.so" | sed -n 's/.*R\(UN\)\{0,1\}PATH.*
 mkdir -p "$prefix/include" "$prefix/lib/pkgconfig" "$prefix/lib/cmake/phongrt" "$prefix/share/doc/phongrt"
 
 # The header, with the version macros set to the workspace version (the tree's header carries the
-# same values; tests/c_install.rs checks that they agree with Cargo.toml).
+# same values; crates/phongrt-capi/tests/c_install.rs checks that they agree with Cargo.toml).
 sed -e "s/^#define PHONGRT_VERSION_MAJOR .*/#define PHONGRT_VERSION_MAJOR $major/" \
     -e "s/^#define PHONGRT_VERSION_MINOR .*/#define PHONGRT_VERSION_MINOR $minor/" \
     -e "s/^#define PHONGRT_VERSION_PATCH .*/#define PHONGRT_VERSION_PATCH $patch/" \

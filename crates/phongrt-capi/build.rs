@@ -28,4 +28,10 @@ fn main() {
             println!("cargo:rustc-cdylib-link-arg=-Wl,-rpath,{lib}");
         }
     }
+    // tests/common's compile_c builds C programs against that same Embree, as the phongrt package's
+    // tests do with the variables its build script sets.
+    println!("cargo:rerun-if-env-changed=DEP_EMBREE4_INCLUDE");
+    let (lib, include) = (std::env::var("DEP_EMBREE4_LIB"), std::env::var("DEP_EMBREE4_INCLUDE"));
+    println!("cargo:rustc-env=PHONGRT_EMBREE_LIB_DIR={}", lib.unwrap_or_default());
+    println!("cargo:rustc-env=PHONGRT_EMBREE_INCLUDE_DIR={}", include.unwrap_or_default());
 }

@@ -1,5 +1,5 @@
 /*
- * Hostile calls to the C API (issue 19, defect 10), run by tests/hostile_inputs.rs:
+ * Hostile calls to the C API (issue 19, defect 10), run by crates/phongrt-cli/tests/hostile_inputs.rs:
  *  - a zero normal is refused, naming the vertex (the patch would never be hit);
  *  - phongrt_surface_point far outside the triangle fails instead of writing inf/NaN;
  *  - NULL arrays with zero counts are accepted (an empty mesh), NULL with a count is refused;

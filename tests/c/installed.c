@@ -1,8 +1,9 @@
 /*
- * A C Embree 4 program as a user of an installed phongrt writes it (built by tests/c_install.rs
- * with pkg-config and with CMake against scripts/install.sh's PREFIX): it attaches a Phong mesh to
- * its own RTCScene, traces rays and checks the hits and shading normals. Prints the header's
- * version, then "ok N checks", and exits 0 when every check passes.
+ * A C Embree 4 program as a user of an installed phongrt writes it (built by
+ * crates/phongrt-capi/tests/c_install.rs with pkg-config and with CMake against
+ * scripts/install.sh's PREFIX): it attaches a Phong mesh to its own RTCScene, traces rays and
+ * checks the hits and shading normals. Prints the header's version, then "ok N checks", and exits
+ * 0 when every check passes.
  */
 #include <math.h>
 #include <stdio.h>

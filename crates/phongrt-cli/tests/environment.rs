@@ -1,6 +1,8 @@
 //! `[environment]`: a constant colour or an equirectangular map as a light, sampled only when
 //! asked for (counted as environment rays), and a missing or corrupt map as an error naming it.
 
+mod common;
+
 use std::sync::Arc;
 
 use assert_cmd::Command;
@@ -81,7 +83,7 @@ fn an_exr_map_loads_and_a_missing_or_corrupt_one_is_an_error_naming_it() {
         assert!(e.starts_with(&p.display().to_string()) && !e.contains('\n'), "{e}");
     }
     // The command line: an error naming the file, no image written.
-    let obj = std::fs::canonicalize("scenes/sphere_lowpoly.obj").unwrap();
+    let obj = std::fs::canonicalize(common::root().join("scenes/sphere_lowpoly.obj")).unwrap();
     let toml = dir.path().join("s.toml");
     std::fs::write(
         &toml,

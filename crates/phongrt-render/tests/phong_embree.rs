@@ -1,5 +1,7 @@
 //! Phong meshes through Embree: watertightness, parity with triangles at alpha = 0,
 //! agreement with the pure-Rust intersector, shading helpers.
+mod common;
+
 use glam::Vec3;
 use phongrt::embree::{CommittedScene, Device, GeometryOptions, PhongMesh, Ray, Scene};
 use phongrt::phong::accuracy::SplitMix;
@@ -80,7 +82,7 @@ fn alpha_zero_matches_embree_triangles() {
 }
 
 fn load_scene_mesh(rel: &str) -> Mesh {
-    let p = std::path::Path::new(env!("CARGO_MANIFEST_DIR")).join(rel);
+    let p = common::root().join(rel);
     let s = phongrt::scene::load_obj(&p, &phongrt::scene::LoadOptions::default()).unwrap();
     s.meshes.into_iter().next().unwrap()
 }

@@ -6,7 +6,9 @@ use assert_cmd::Command;
 use predicates::prelude::*;
 
 fn phongrt() -> Command {
-    Command::cargo_bin("phongrt").unwrap()
+    let mut c = Command::cargo_bin("phongrt").unwrap();
+    c.current_dir(common::root());
+    c
 }
 
 #[test]
@@ -475,6 +477,7 @@ fn a_file_size_limit_is_an_error_and_keeps_the_old_image() {
             ))
             .arg(&bin)
             .arg(&out)
+            .current_dir(common::root())
             .output()
             .unwrap()
     };
@@ -525,7 +528,7 @@ fn threads_beyond_the_machine_start_what_it_has_and_say_so() {
 
 fn scene_with(dir: &std::path::Path, extra: &str) -> String {
     let p = dir.join("s.toml");
-    let obj = std::path::Path::new(env!("CARGO_MANIFEST_DIR")).join("scenes/sphere_lowpoly.obj");
+    let obj = common::root().join("scenes/sphere_lowpoly.obj");
     std::fs::write(&p, format!("obj = {obj:?}\n{extra}")).unwrap();
     p.to_string_lossy().into_owned()
 }
@@ -646,8 +649,8 @@ fn completions_name_the_farm_flags() {
 #[test]
 fn closed_stdout_is_exit_1() {
     let exe = common::target_dir().join("phongrt");
-    let render =
-        format!("exec '{}' render scenes/sphere_lowpoly.obj --width 16 --height 16 -o -", exe.display());
+    let scene = common::root().join("scenes/sphere_lowpoly.obj");
+    let render = format!("exec '{}' render '{}' --width 16 --height 16 -o -", exe.display(), scene.display());
     let o = std::process::Command::new("sh").arg("-c").arg(format!("{render} >&-")).output().unwrap();
     let err = String::from_utf8_lossy(&o.stderr);
     assert_eq!(o.status.code(), Some(1), "{err}");

@@ -10,7 +10,7 @@
 //! failing input is written to target/fuzz-failures/ with its seed and index.
 mod common;
 
-use std::path::{Path, PathBuf};
+use std::path::PathBuf;
 use std::sync::atomic::{AtomicBool, AtomicU64, AtomicUsize, Ordering};
 use std::sync::Arc;
 use std::time::{Duration, Instant};
@@ -242,7 +242,7 @@ fn mutate(rng: &mut Rng, text: &[u8], what: &mut String) -> Vec<u8> {
 }
 
 fn inputs(ext: &str) -> Vec<(PathBuf, Vec<u8>)> {
-    let root = Path::new(env!("CARGO_MANIFEST_DIR"));
+    let root = common::root();
     let mut dirs = vec![root.join("scenes")];
     for d in [root.join("scenes"), common::corpus_quiet().unwrap_or_default()] {
         if let Ok(rd) = std::fs::read_dir(&d) {
@@ -288,7 +288,7 @@ struct Counts {
 }
 
 fn save_failure(seed: u64, i: usize, kind: &str, bytes: &[u8]) -> PathBuf {
-    let dir = Path::new(env!("CARGO_MANIFEST_DIR")).join("target/fuzz-failures");
+    let dir = common::root().join("target/fuzz-failures");
     std::fs::create_dir_all(&dir).unwrap();
     let p = dir.join(format!("seed{seed}-{kind}{i}"));
     std::fs::write(&p, bytes).unwrap();

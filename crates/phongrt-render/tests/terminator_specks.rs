@@ -3,7 +3,7 @@
 //! while the former rule (`lift-ng`) blocks some (the cone points where the patches' true normals
 //! meet 6–8° apart); and the pass through the mesh's own bumps leaks no light: the shadow of
 //! another object, and a mesh's shadow onto itself across a real gap, stay.
-use std::path::Path;
+mod common;
 
 use glam::Vec3;
 use phongrt::embree::{Device, Ray};
@@ -12,7 +12,7 @@ use phongrt::scene::{load_obj, uv_sphere, LoadOptions, Mesh, Model};
 use phongrt_render::{ObjectMode, RayCounts, Terminator, World};
 
 fn demo_sphere() -> Model {
-    let path = Path::new(env!("CARGO_MANIFEST_DIR")).join("scenes/sphere_lowpoly.obj");
+    let path = common::root().join("scenes/sphere_lowpoly.obj");
     load_obj(&path, &LoadOptions::default()).unwrap()
 }
 

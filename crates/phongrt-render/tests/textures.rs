@@ -2,6 +2,8 @@
 //! corner; backslash paths; a missing or undecodable texture and bad `vt` lines as one-line
 //! warnings with the flat colour; texture lookups only for textured objects.
 
+mod common;
+
 use std::path::Path;
 
 use glam::{Vec2, Vec3};
@@ -142,7 +144,7 @@ fn bad_vt_lines_warn_with_the_line_and_load() {
 fn the_spiders_backslash_jpeg_textures_load() {
     let dir = std::env::var_os("PHONGRT_CORPUS")
         .map(std::path::PathBuf::from)
-        .unwrap_or_else(|| Path::new(env!("CARGO_MANIFEST_DIR")).join("../shared/corpus"));
+        .unwrap_or_else(|| common::root().join("../shared/corpus"));
     let obj = dir.join("spider/spider.obj");
     if !obj.exists() {
         eprintln!("skipped: {} not found", obj.display());

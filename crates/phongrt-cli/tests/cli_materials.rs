@@ -1,9 +1,13 @@
 //! The command line's camera and material choices: `--up`, `--orbit`, `--compare` with a scene
 //! file's per-object settings, material warnings.
+mod common;
+
 use assert_cmd::Command;
 
 fn phongrt() -> Command {
-    Command::cargo_bin("phongrt").unwrap()
+    let mut c = Command::cargo_bin("phongrt").unwrap();
+    c.current_dir(common::root());
+    c
 }
 
 fn stderr_of(a: &assert_cmd::assert::Assert) -> String {
@@ -13,7 +17,7 @@ fn stderr_of(a: &assert_cmd::assert::Assert) -> String {
 #[test]
 fn compare_honours_the_scene_files_per_object_mode() {
     let dir = tempfile::tempdir().unwrap();
-    let obj = std::fs::canonicalize("scenes/sphere_lowpoly.obj").unwrap();
+    let obj = std::fs::canonicalize(common::root().join("scenes/sphere_lowpoly.obj")).unwrap();
     let toml = dir.path().join("s.toml");
     let body = format!("obj = {:?}\n[[object]]\nname = \"*\"\nmode = \"flat\"\n", obj.display().to_string());
     std::fs::write(&toml, body).unwrap();

@@ -4,7 +4,6 @@
 //! (memcheck, leak check) when valgrind is installed.
 //!
 //! The shared library must be built first (`cargo build --release -p phongrt-capi`; scripts/test.sh does).
-use std::path::PathBuf;
 use std::process::Command;
 
 mod common;
@@ -20,7 +19,7 @@ fn c_program_mixes_triangles_phong_and_instances() {
 /// hits (the program exits non-zero when the counts differ).
 #[test]
 fn c_user_floor_matches_native_triangles() {
-    let root = PathBuf::from(env!("CARGO_MANIFEST_DIR"));
+    let root = common::root();
     let cc = std::env::var("CC").unwrap_or_else(|_| "cc".into());
     let out = tempfile::tempdir().unwrap();
     let exe = out.path().join("user_floor");

@@ -3,8 +3,6 @@
 //! scene and for worlds that use every light kind and effect, whatever the crop and threads.
 mod common;
 
-use std::path::Path;
-
 use assert_cmd::Command;
 use glam::Vec3;
 use phongrt::embree::Device;
@@ -146,7 +144,7 @@ fn phongrt() -> Command {
 #[test]
 fn the_demo_scene_renders_the_same_with_packets_on_and_off() {
     let dir = tempfile::tempdir().unwrap();
-    let sphere = Path::new(env!("CARGO_MANIFEST_DIR")).join("scenes/sphere_lowpoly.obj");
+    let sphere = common::root().join("scenes/sphere_lowpoly.obj");
     // scripts/demo.sh's render, each panel alone (the --compare panel's labels hold the
     // render times), in linear f32 (EXR): exact bits.
     let render = |mode: &str, packets: &str| {
@@ -171,7 +169,7 @@ fn the_demo_scene_renders_the_same_with_packets_on_and_off() {
 
 #[test]
 fn a_bad_packets_value_is_refused_naming_the_flag() {
-    let sphere = Path::new(env!("CARGO_MANIFEST_DIR")).join("scenes/sphere_lowpoly.obj");
+    let sphere = common::root().join("scenes/sphere_lowpoly.obj");
     let out = phongrt().arg("render").arg(&sphere).args(["--packets", "sometimes"]).assert().failure();
     let err = String::from_utf8_lossy(&out.get_output().stderr).into_owned();
     assert!(err.contains("--packets") && err.contains("sometimes"), "{err}");

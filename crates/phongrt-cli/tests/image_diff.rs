@@ -11,7 +11,12 @@
 //! (sphere, 30 channel values) and 12 levels (wuson, 81 channel values).
 mod common;
 
+use std::path::Path;
+
 use assert_cmd::Command;
+
+/// The reference images: tests/data/images of this package.
+const IMAGES: &str = concat!(env!("CARGO_MANIFEST_DIR"), "/tests/data/images");
 
 /// Pixels that differ by more than `level` (of 255) in any channel, and the largest difference.
 fn diff(a: &image::RgbImage, b: &image::RgbImage, level: u8) -> (usize, u8) {
@@ -45,7 +50,7 @@ fn check(scene: &str, reference: &str, width: u32, ground: bool) {
         .assert()
         .success();
     let got = image::open(&path).unwrap().to_rgb8();
-    let want = image::open(common::root().join("tests/data/images").join(reference)).unwrap().to_rgb8();
+    let want = image::open(Path::new(IMAGES).join(reference)).unwrap().to_rgb8();
     let (moved, max) = diff(&got, &want, 2);
     let pixels = (width * width) as usize;
     assert!(moved * 1000 <= pixels * 3, "{scene}: {moved} of {pixels} pixels moved (max {max} levels)");
@@ -69,8 +74,8 @@ fn the_capped_cylinder_renders_as_its_reference() {
 #[test]
 fn a_changed_image_is_caught() {
     // The check itself: the sphere's reference against wuson's differs in most pixels.
-    let a = image::open(common::root().join("tests/data/images/sphere_lowpoly_phong_128.png")).unwrap();
-    let b = image::open(common::root().join("tests/data/images/wuson_phong_128.png")).unwrap();
+    let a = image::open(Path::new(IMAGES).join("sphere_lowpoly_phong_128.png")).unwrap();
+    let b = image::open(Path::new(IMAGES).join("wuson_phong_128.png")).unwrap();
     let (moved, max) = diff(&a.to_rgb8(), &b.to_rgb8(), 2);
     assert!(moved > 1000 && max > 50, "{moved} {max}");
 }

@@ -2,7 +2,7 @@
 //! facing the camera is the lit one, and the up axis and front are found (corpus models; those
 //! are #[ignore = "needs ../shared/corpus"] and fail loudly without it; .ci/run runs them).
 
-use std::path::Path;
+mod common;
 
 use glam::Vec3;
 use phongrt::embree::{Device, Ray};
@@ -12,9 +12,7 @@ use phongrt_render::{Camera, Ground, ObjectMode, ObjectSettings, World};
 
 /// The corpus folder: $PHONGRT_CORPUS, else ../shared/corpus beside the project.
 fn corpus() -> std::path::PathBuf {
-    std::env::var_os("PHONGRT_CORPUS")
-        .map(Into::into)
-        .unwrap_or_else(|| Path::new(env!("CARGO_MANIFEST_DIR")).join("../shared/corpus"))
+    std::env::var_os("PHONGRT_CORPUS").map(Into::into).unwrap_or_else(|| root().join("../shared/corpus"))
 }
 const W: u32 = 160;
 const H: u32 = 120;
@@ -286,7 +284,7 @@ fn the_mug_shows_its_handle() {
 }
 
 fn root() -> std::path::PathBuf {
-    Path::new(env!("CARGO_MANIFEST_DIR")).to_path_buf()
+    common::root()
 }
 
 #[test]

@@ -1,9 +1,13 @@
 //! The command line's shading choices: `--shading`, `--terminator`, `--ground` and their scene-file
 //! keys, and `phongrt smoothness`.
+mod common;
+
 use assert_cmd::Command;
 
 fn phongrt() -> Command {
-    Command::cargo_bin("phongrt").unwrap()
+    let mut c = Command::cargo_bin("phongrt").unwrap();
+    c.current_dir(common::root());
+    c
 }
 
 fn stderr_of(a: &assert_cmd::assert::Assert) -> String {
@@ -29,7 +33,7 @@ fn unknown_shading_and_terminator_names_are_refused_with_the_value() {
 #[test]
 fn scene_file_shading_terminator_and_ground_keys_are_checked() {
     let dir = tempfile::tempdir().unwrap();
-    let obj = std::fs::canonicalize("scenes/sphere_lowpoly.obj").unwrap();
+    let obj = std::fs::canonicalize(common::root().join("scenes/sphere_lowpoly.obj")).unwrap();
     let cases = [
         ("[render]\nshading = \"smooth\"\n", "render.shading"),
         ("[render]\nterminator = \"hack\"\n", "render.terminator"),

@@ -6,7 +6,7 @@
 //!
 //! The figure (see `phongrt smoothness`): pixels at least 3 px inside the silhouette whose
 //! luminance differs from the left or upper neighbour by more than 8/255, at 600×600 and 16 spp.
-use std::path::Path;
+mod common;
 
 use glam::Vec3;
 use phongrt::embree::{Device, Ray};
@@ -21,11 +21,7 @@ use phongrt_render::{
 const SIZE: u32 = 600;
 
 fn demo_sphere() -> Model {
-    load_obj(
-        Path::new(env!("CARGO_MANIFEST_DIR")).join("scenes/sphere_lowpoly.obj").as_path(),
-        &LoadOptions::default(),
-    )
-    .unwrap()
+    load_obj(common::root().join("scenes/sphere_lowpoly.obj").as_path(), &LoadOptions::default()).unwrap()
 }
 
 struct Setup {

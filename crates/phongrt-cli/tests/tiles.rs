@@ -2,6 +2,8 @@
 //! whatever the tile count and thread count; frames, seeds and stats; bad farm flags are one
 //! line naming the flag and the value, with exit status 2; image read/write errors are typed
 //! and name the file.
+mod common;
+
 use std::path::{Path, PathBuf};
 
 use assert_cmd::Command;
@@ -11,7 +13,7 @@ fn phongrt() -> Command {
 }
 
 fn sphere() -> String {
-    Path::new(env!("CARGO_MANIFEST_DIR")).join("scenes/sphere_lowpoly.obj").to_string_lossy().into_owned()
+    common::root().join("scenes/sphere_lowpoly.obj").to_string_lossy().into_owned()
 }
 
 /// A scene whose pixels use every random stream: jittered samples, an area light, AO, a mirror.
