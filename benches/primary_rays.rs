@@ -35,12 +35,7 @@ fn bench(c: &mut Criterion) {
     let user = user.commit().unwrap();
 
     let mut phong = Scene::new(&device).unwrap();
-    phong
-        .attach_phong(
-            PhongMesh::new(p.clone(), n.clone(), idx.clone(), 1.0).unwrap(),
-            GeometryOptions::default(),
-        )
-        .unwrap();
+    phong.attach_phong(PhongMesh::new(&p, &n, &idx, 1.0).unwrap(), GeometryOptions::default()).unwrap();
     let phong = phong.commit().unwrap();
 
     let mut g = c.benchmark_group("primary_rays_sphere_12x6");

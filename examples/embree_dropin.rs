@@ -78,7 +78,7 @@ fn main() -> Result<(), Box<dyn std::error::Error>> {
     // The Phong mesh: an octahedron with its vertices on the unit sphere, normals = positions.
     let p = [Vec3::X, -Vec3::X, Vec3::Y, -Vec3::Y, Vec3::Z, -Vec3::Z];
     let idx = [[0, 2, 4], [2, 1, 4], [1, 3, 4], [3, 0, 4], [2, 0, 5], [1, 2, 5], [3, 1, 5], [0, 3, 5]];
-    let octahedron = PhongMesh::new(p.to_vec(), p.to_vec(), idx.to_vec(), 1.0)?;
+    let octahedron = PhongMesh::new(&p, &p, &idx, 1.0)?;
 
     // SAFETY: the usual Embree lifetime rules: the device outlives the scene, the Phong handle
     // outlives every trace of the scene (attach_phong_raw's contract): it is dropped after

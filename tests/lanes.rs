@@ -90,7 +90,7 @@ fn lane_kernel_matches_the_scalar_path_on_the_accuracy_cases() {
 fn lane_kernel_matches_the_scalar_path_on_a_million_camera_rays() {
     let m = uv_sphere(12, 6, 1.0);
     assert_eq!(m.indices.len(), 120);
-    let mesh = PhongMesh::new(m.positions, m.normals, m.indices, DEFAULT_ALPHA).unwrap();
+    let mesh = PhongMesh::new(&m.positions, &m.normals, &m.indices, DEFAULT_ALPHA).unwrap();
     assert!(mesh.tests_lanes_together());
     let boxes: Vec<_> = (0..mesh.patches().len() as u32).map(|i| mesh.patch_bounds(i)).collect();
     let eye = Vec3::new(0.3, 0.2, 3.0);
@@ -150,7 +150,7 @@ fn check_mesh_route(mesh: &PhongMesh, prim: u32, rays: &LaneRays) -> usize {
 #[test]
 fn packet_route_with_origins_matches_the_single_ray_route() {
     let m = uv_sphere(12, 6, 1.0);
-    let mesh = PhongMesh::new(m.positions, m.normals, m.indices, DEFAULT_ALPHA).unwrap();
+    let mesh = PhongMesh::new(&m.positions, &m.normals, &m.indices, DEFAULT_ALPHA).unwrap();
     let prims = mesh.patches().len() as u32;
     let (eye, light) = (Vec3::new(0.3, 0.2, 3.0), Vec3::new(-0.5, 0.8, 0.3).normalize());
     let nearest = |o: Vec3, d: Vec3| {

@@ -84,7 +84,7 @@ fn packet_lanes_equal_single_rays_on_flat_triangles() {
 fn packet_lanes_equal_single_rays_on_a_phong_mesh() {
     let device = Device::new().unwrap();
     let m = uv_sphere(12, 6, 1.0);
-    let pm = PhongMesh::new(m.positions.clone(), m.normals.clone(), m.indices.clone(), 0.75).unwrap();
+    let pm = PhongMesh::new(&m.positions, &m.normals, &m.indices, 0.75).unwrap();
     let mut scene = Scene::new(&device).unwrap();
     scene.attach_phong(pm, GeometryOptions::default()).unwrap();
     // A flat floor beside it, so packets mix user geometry and Embree's triangles.

@@ -28,7 +28,7 @@ fn octahedron() -> PhongMesh {
     .map(Vec3::from)
     .to_vec();
     let idx = vec![[0, 2, 4], [2, 1, 4], [1, 3, 4], [3, 0, 4], [2, 0, 5], [1, 2, 5], [3, 1, 5], [0, 3, 5]];
-    PhongMesh::new(p.clone(), p, idx, 1.0).unwrap()
+    PhongMesh::new(&p, &p, &idx, 1.0).unwrap()
 }
 
 /// The case: attach with an error pending, then commit and trace whatever the attach answered

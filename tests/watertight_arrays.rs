@@ -100,7 +100,7 @@ fn escapes(scene: &CommittedScene, per_origin: usize) -> usize {
 fn phong_mesh_new_cylinder_soup_with_split_normals_leaks_no_ray_in_a_million() {
     let device = Device::new().unwrap();
     let (p, n, i) = cylinder_soup();
-    let scene = scene_of(&device, PhongMesh::new(p, n, i, 1.0).unwrap());
+    let scene = scene_of(&device, PhongMesh::new(&p, &n, &i, 1.0).unwrap());
     let e = escapes(&scene, 250_000);
     assert_eq!(e, 0, "capped cylinder soup: {e} of 10^6 rays escaped");
 }
@@ -109,7 +109,7 @@ fn phong_mesh_new_cylinder_soup_with_split_normals_leaks_no_ray_in_a_million() {
 fn phong_mesh_new_split_normal_box_leaks_no_ray_in_a_million() {
     let device = Device::new().unwrap();
     let (p, n, i) = split_normal_box();
-    let scene = scene_of(&device, PhongMesh::new(p, n, i, 1.0).unwrap());
+    let scene = scene_of(&device, PhongMesh::new(&p, &n, &i, 1.0).unwrap());
     let e = escapes(&scene, 250_000);
     assert_eq!(e, 0, "split-normal box: {e} of 10^6 rays escaped");
 }
@@ -161,27 +161,27 @@ fn watertight_mesh_keeps_the_callers_prim_ids_and_corner_order() {
 fn bad_arrays_are_refused_naming_what_is_wrong() {
     let (p, mut n, idx) = split_normal_box();
     let msg = |r: Result<PhongMesh, PhongMeshError>| r.unwrap_err().to_string();
-    let e = msg(PhongMesh::new(p.clone(), n[..5].to_vec(), idx.clone(), 1.0));
+    let e = msg(PhongMesh::new(&p, &n[..5], &idx, 1.0));
     assert!(e.contains("5 normals for 24 positions"), "{e}");
     let mut bad_idx = idx.clone();
     bad_idx[7][2] = 24;
-    let e = msg(PhongMesh::new(p.clone(), n.clone(), bad_idx, 1.0));
+    let e = msg(PhongMesh::new(&p, &n, &bad_idx, 1.0));
     assert!(e.contains("triangle 7 has vertex index 24") && e.contains("24 vertices"), "{e}");
     for alpha in [-0.1, 1.5, f32::NAN] {
-        let e = msg(PhongMesh::new(p.clone(), n.clone(), idx.clone(), alpha));
+        let e = msg(PhongMesh::new(&p, &n, &idx, alpha));
         assert!(e.contains("alpha") && e.contains("not in [0, 1]"), "{e}");
     }
     n[3] = Vec3::ZERO;
-    let e = msg(PhongMesh::new(p.clone(), n.clone(), idx.clone(), 1.0));
+    let e = msg(PhongMesh::new(&p, &n, &idx, 1.0));
     assert_eq!(e, "vertex 3 has a zero normal (its triangles could never be hit)");
     // Zero in the plain builder too: an invisible triangle is never what the caller meant.
     assert!(msg(PhongMesh::builder(&p, &n, &idx).plain().build()).contains("vertex 3 has a zero normal"));
     n[3] = Vec3::new(f32::NAN, 0.0, 1.0);
-    assert!(msg(PhongMesh::new(p.clone(), n.clone(), idx.clone(), 1.0)).contains("vertex 3 has a non-finite"));
+    assert!(msg(PhongMesh::new(&p, &n, &idx, 1.0)).contains("vertex 3 has a non-finite"));
     n[3] = Vec3::Z;
     let mut q = p.clone();
     q[9].y = f32::INFINITY;
-    assert!(msg(PhongMesh::new(q, n.clone(), idx.clone(), 1.0)).contains("vertex 9 has a non-finite"));
+    assert!(msg(PhongMesh::new(&q, &n, &idx, 1.0)).contains("vertex 9 has a non-finite"));
     let e = msg(PhongMesh::builder(&p, &n, &idx).weld_tolerance(-1.0).build());
     assert!(e.contains("weld tolerance -1"), "{e}");
     let e = msg(PhongMesh::builder(&p, &n, &idx).straight_edges(&[[true; 3]; 3]).build());

@@ -267,12 +267,12 @@ impl PhongMesh {
     /// count, an out-of-range index, a non-finite position or normal, a zero normal, an alpha
     /// outside [0, 1].
     pub fn new(
-        positions: Vec<Vec3>,
-        normals: Vec<Vec3>,
-        indices: Vec<[u32; 3]>,
+        positions: &[Vec3],
+        normals: &[Vec3],
+        indices: &[[u32; 3]],
         alpha: f32,
     ) -> Result<Self, PhongMeshError> {
-        Self::builder(&positions, &normals, &indices).alpha(alpha).build()
+        Self::builder(positions, normals, indices).alpha(alpha).build()
     }
 
     /// Options for a mesh of these arrays (watertight, alpha [`crate::phong::DEFAULT_ALPHA`], certified intersection unless

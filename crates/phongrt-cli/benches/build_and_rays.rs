@@ -16,7 +16,7 @@ fn build(device: &Device, m: &Mesh, phong: bool) -> (CommittedScene, f64, i64, u
     let t = Instant::now();
     let mut s = Scene::new(device).unwrap();
     let own = if phong {
-        let pm = PhongMesh::new(m.positions.clone(), m.normals.clone(), m.indices.clone(), 1.0).unwrap();
+        let pm = PhongMesh::new(&m.positions, &m.normals, &m.indices, 1.0).unwrap();
         let own = pm.memory_bytes();
         s.attach_phong(pm, GeometryOptions::default()).unwrap();
         own

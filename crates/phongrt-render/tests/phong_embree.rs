@@ -192,7 +192,7 @@ fn phong_mesh_attaches_to_a_raw_scene_made_by_the_callers_own_embree_code() {
     use phongrt::sys;
     let device = Device::new().unwrap();
     let mesh = uv_sphere(12, 6, 1.0);
-    let pm = PhongMesh::new(mesh.positions.clone(), mesh.normals.clone(), mesh.indices.clone(), 1.0).unwrap();
+    let pm = PhongMesh::new(&mesh.positions, &mesh.normals, &mesh.indices, 1.0).unwrap();
     // The caller's own scene, created through the raw API on our device.
     let helper = Scene::new(&device).unwrap(); // only to reach the raw device handle
                                                // SAFETY (test): the device is live while `helper` is; the raw scene is released below,
@@ -219,7 +219,7 @@ fn attach_phong_shares_the_mesh_with_the_caller_without_a_copy() {
     use std::sync::Arc;
     let device = Device::new().unwrap();
     let m = uv_sphere(12, 6, 1.0);
-    let mesh = Arc::new(PhongMesh::new(m.positions, m.normals, m.indices, 1.0).unwrap());
+    let mesh = Arc::new(PhongMesh::new(&m.positions, &m.normals, &m.indices, 1.0).unwrap());
     let mut s = Scene::new(&device).unwrap();
     s.attach_phong(mesh.clone(), GeometryOptions::default()).unwrap();
     let s = s.commit().unwrap();

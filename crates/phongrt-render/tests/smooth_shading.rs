@@ -296,7 +296,7 @@ fn shading_queries_at_degenerate_points_return_none_not_nan() {
     // A zero vertex normal: the mesh is refused, naming the vertex.
     let p = vec![Vec3::ZERO, Vec3::X, Vec3::Y];
     let n = vec![Vec3::Z, Vec3::ZERO, Vec3::Z];
-    let e = phongrt::embree::PhongMesh::new(p, n, vec![[0, 1, 2]], DEFAULT_ALPHA).unwrap_err();
+    let e = phongrt::embree::PhongMesh::new(&p, &n, &[[0, 1, 2]], DEFAULT_ALPHA).unwrap_err();
     assert!(e.to_string().contains("vertex 1"), "{e}");
 }
 
