@@ -68,7 +68,7 @@ pub enum Error {
 pub use glam;
 
 /// The README's Rust examples, compiled and run as doctests (the one that needs a mesh in
-/// scope is marked `ignore`; `tests/phong_embree.rs` runs the same calls).
+/// scope is marked `ignore`; `crates/phongrt-render/tests/phong_embree.rs` runs the same calls).
 #[cfg(doctest)]
 #[doc = include_str!("../README.md")]
 pub struct ReadmeDoctests;

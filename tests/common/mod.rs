@@ -16,16 +16,6 @@ pub fn target_dir() -> PathBuf {
     exe.parent().and_then(|p| p.parent()).unwrap().to_path_buf()
 }
 
-/// The third-party model corpus (`../shared/corpus` beside the checkout, or `PHONGRT_CORPUS`), or
-/// `None` with a message when it is absent (a user's clone has none).
-pub fn corpus() -> Option<PathBuf> {
-    let c = corpus_quiet();
-    if c.is_none() {
-        println!("skipped: ../shared/corpus is absent");
-    }
-    c
-}
-
 /// Compile the C program `source` against include/phongrt.h and the workspace's libphongrt.so
 /// (built by `cargo build --release -p phongrt-capi`; scripts/test.sh does) with the system C
 /// compiler, into a temporary directory that also holds the SONAME link `libphongrt.so.0` (as an

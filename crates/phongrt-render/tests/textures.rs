@@ -141,15 +141,9 @@ fn bad_vt_lines_warn_with_the_line_and_load() {
 }
 
 #[test]
+#[ignore = "needs ../shared/corpus"]
 fn the_spiders_backslash_jpeg_textures_load() {
-    let dir = std::env::var_os("PHONGRT_CORPUS")
-        .map(std::path::PathBuf::from)
-        .unwrap_or_else(|| common::root().join("../shared/corpus"));
-    let obj = dir.join("spider/spider.obj");
-    if !obj.exists() {
-        eprintln!("skipped: {} not found", obj.display());
-        return;
-    }
+    let obj = common::corpus_required().join("spider/spider.obj");
     let scene = load_obj(&obj, &LoadOptions::default()).unwrap();
     assert!(!scene.warnings.iter().any(|w| w.contains("not found")), "{:?}", scene.warnings);
     let device = Device::new().unwrap();
