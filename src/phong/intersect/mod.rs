@@ -33,6 +33,7 @@ use analytic::{analytic_local, analytic_projected};
 use certified::{certified_newton, Proofs};
 use conic::project;
 use domain::domain_tolerance;
+#[cfg(test)]
 use hull::hits_hull;
 use newton::newton_local;
 use retry::{decide_in_f64, sliver_from_afar};
@@ -163,6 +164,7 @@ pub fn intersect_in_hull_traced<T: Real>(
 
 /// The body of [`intersect_traced`], with the hull test where `cull`; `FMA` where the caller is
 /// compiled with the `fma` target feature (the hull test then fuses its dot products).
+#[cfg(test)]
 #[inline(always)]
 fn intersect_with<T: Real, const FMA: bool>(
     p: &Patch<T>,
@@ -173,15 +175,35 @@ fn intersect_with<T: Real, const FMA: bool>(
     method: Method,
     cull: bool,
 ) -> (Option<PatchHit<T>>, TestOutcome) {
-    // To the local frame (t is unchanged). A non-finite ray stays non-finite there (the frame's
-    // centre and scale are finite), so one test covers both.
-    let o = (org - p.center) * p.inv_scale;
-    let d = dir * p.inv_scale;
-    // The hull test comes first: it turns away half the tests Embree hands over, and never a
-    // ray that hits (it passes NaN, which the bad-input test below then turns away).
+    let (o, d) = to_local(p, org, dir);
     if cull && !hits_hull::<T, FMA>(p, o, d, tmin, tmax) {
         return (None, TestOutcome::HullReject);
     }
+    solve_local(p, (org, dir), o, d, tmin, tmax, method)
+}
+
+/// The ray in the patch's local frame (t is unchanged). A non-finite ray stays non-finite there
+/// (the frame's centre and scale are finite), so one test covers both.
+#[inline(always)]
+fn to_local<T: Real>(p: &Patch<T>, org: V3<T>, dir: V3<T>) -> (V3<T>, V3<T>) {
+    ((org - p.center) * p.inv_scale, dir * p.inv_scale)
+}
+
+/// The patch test after the hull test (which comes first: it turns away half the tests Embree
+/// hands over, and never a ray that hits; it passes NaN, which the bad-input test below then
+/// turns away): the local ray `(o, d)` solved by `method`, the world-space ray `world` kept for
+/// the f64 retry.
+#[inline(always)]
+fn solve_local<T: Real>(
+    p: &Patch<T>,
+    world: (V3<T>, V3<T>),
+    o: V3<T>,
+    d: V3<T>,
+    tmin: T,
+    tmax: T,
+    method: Method,
+) -> (Option<PatchHit<T>>, TestOutcome) {
+    let (org, dir) = world;
     let bad_interval = tmin.to_f64().is_nan() || tmax.to_f64().is_nan();
     if p.degenerate || bad_interval || !(o.is_finite() && d.is_finite()) || d.max_abs() == T::ZERO {
         return (None, TestOutcome::BadInput);
