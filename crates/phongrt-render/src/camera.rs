@@ -5,20 +5,29 @@ use glam::Vec3;
 /// A pinhole camera. `fov_y_deg` is the vertical field of view.
 #[derive(Clone, Copy, Debug, PartialEq)]
 pub struct Camera {
+    /// The camera's position, in the scene's units.
     pub eye: Vec3,
+    /// The point seen at the image centre; must differ from `eye`.
     pub look_at: Vec3,
+    /// The direction shown upwards in the image: any length, need not be perpendicular to the
+    /// view, but must not be zero or parallel to `look_at - eye`.
     pub up: Vec3,
+    /// Vertical field of view in degrees, in (0, 180); the horizontal one follows from the
+    /// image's aspect ratio.
     pub fov_y_deg: f32,
 }
 
 /// Per-image camera basis, computed once.
 #[derive(Clone, Copy, Debug)]
 pub struct CameraFrame {
+    /// The origin of every camera ray ([`Camera::eye`]).
     pub eye: Vec3,
     /// Direction through the image centre (unit).
     pub forward: Vec3,
     /// Half-extent vectors of the image plane at distance 1.
     pub right: Vec3,
+    /// Towards the top of the image, perpendicular to `forward` and `right`, of length
+    /// `tan(fov_y / 2)` (the image plane's half height at distance 1).
     pub up: Vec3,
 }
 
@@ -56,14 +65,29 @@ impl Camera {
 /// `look_at`, `up`, `fov`), for the caller to say where each came from.
 #[derive(Clone, Copy, Debug, PartialEq, thiserror::Error)]
 pub enum CameraProblem {
+    /// `eye` and `look_at` are the same point (given here), so there is no view direction.
     #[error("eye and look_at are both {0:?}: the view direction is undefined")]
     EyeAtLookAt([f32; 3]),
+    /// `up` is zero or parallel to the view direction, so the image has no horizontal axis.
     #[error("up {up:?} is zero or parallel to the view direction look_at - eye = {dir:?}")]
-    UpParallel { up: [f32; 3], dir: [f32; 3] },
+    UpParallel {
+        /// The camera's `up` as given.
+        up: [f32; 3],
+        /// The view direction `look_at - eye` (not normalised).
+        dir: [f32; 3],
+    },
+    /// The vertical field of view (given here) is not in (0, 180) degrees, or is NaN.
     #[error("fov {0} is not in (0, 180) degrees")]
     Fov(f32),
+    /// `eye` or `look_at` has an infinite or NaN coordinate (automatic framing of bounds too
+    /// large for f32 can make one).
     #[error("eye {eye:?} or look_at {look_at:?} is not finite (scene bounds too large?)")]
-    NonFinite { eye: [f32; 3], look_at: [f32; 3] },
+    NonFinite {
+        /// The camera's position.
+        eye: [f32; 3],
+        /// The camera's look-at point.
+        look_at: [f32; 3],
+    },
 }
 
 impl Camera {
@@ -362,7 +386,8 @@ fn lowest_corner(lo: Vec3, hi: Vec3, up: Vec3) -> f32 {
 /// Object names that mark a model's face: its front is the side they are on.
 const FACE_PART_NAMES: [&str; 6] = ["head", "face", "eye", "kopf", "auge", "tete"];
 
-/// The front of a model whose objects name its face ([`FACE_PART_NAMES`], in any case, as the
+/// The front of a model whose objects name its face (`head`, `face`, `eye`, `kopf`, `auge`,
+/// `tete`, in any case, as the
 /// spider's "Kopf" and "Auge"): the horizontal direction from the centre of the bounds to the
 /// centroid of those objects' vertices, when it is more than 10% of the horizontal extent off
 /// the centre (a model that is all head, like `african_head`'s object "head", keeps its front).
@@ -419,11 +444,16 @@ pub fn handle_front(scene: &phongrt::scene::Model, detection: UpDetection) -> Op
 /// The up axis and front [`detect_up`] chose, and the evidence.
 #[derive(Clone, Copy, Debug, PartialEq)]
 pub struct UpDetection {
+    /// The up axis chosen: +z when the model stands on a base facing down along z (more than
+    /// twice the y base, and above 0.5% of the area), else +y; for a flat model, +z if it is thin
+    /// along y, else +y.
     pub up: Vec3,
     /// The front (see [`front_for_up`]; for a flat model, the side its faces point to).
     pub front: Vec3,
-    /// Area of the base facing down along y and z, as fractions of the total area.
+    /// Area of the base facing down along y, as a fraction of the total area: faces within 18
+    /// degrees of the y axis at the bottom of the bounds (either winding).
     pub base_y: f32,
+    /// The same along z.
     pub base_z: f32,
     /// The axis a flat model (thinner than 1/1000 of its diagonal) lies across, if any.
     pub flat_axis: Option<usize>,
@@ -475,7 +505,7 @@ impl std::fmt::Display for UpDetection {
 ///
 /// The front is the exporters' convention ([`front_for_up`]) except for a model that is long
 /// along a horizontal axis (at least 1.3 times its other horizontal extent): an animal or a
-/// vehicle, whose front is the end where its highest parts are (see [`head_end`]).
+/// vehicle, whose front is the end where its highest parts are.
 pub fn detect_up(triangles: impl Iterator<Item = [Vec3; 3]> + Clone) -> UpDetection {
     let triangles_for_front = triangles.clone();
     let (mut lo, mut hi) = (Vec3::splat(f32::INFINITY), Vec3::splat(f32::NEG_INFINITY));

@@ -176,12 +176,17 @@ pub enum ImageError {
 /// A linear-light RGB image, row-major from the top-left pixel.
 #[derive(Clone, Debug, PartialEq)]
 pub struct Image {
+    /// Width in pixels.
     pub width: u32,
+    /// Height in pixels.
     pub height: u32,
+    /// `width * height` linear RGB values (unclamped), row by row from the top-left pixel:
+    /// pixel `(x, y)` is at `y * width + x`.
     pub pixels: Vec<Vec3>,
 }
 
-/// The sRGB transfer function (IEC 61966-2-1), linear in [0,1] to encoded [0,1].
+/// The sRGB transfer function (IEC 61966-2-1), linear in `[0, 1]` to encoded `[0, 1]` (NaN
+/// becomes 0, values outside are clamped).
 pub fn linear_to_srgb(c: f32) -> f32 {
     let c = if c.is_nan() { 0.0 } else { c.clamp(0.0, 1.0) };
     if c <= 0.003_130_8 {
@@ -202,10 +207,12 @@ impl Image {
         Image { width, height, pixels: vec![Vec3::ZERO; width as usize * height as usize] }
     }
 
+    /// The pixel at column `x`, row `y` (row 0 at the top). Panics outside the image.
     pub fn get(&self, x: u32, y: u32) -> Vec3 {
         self.pixels[(y as usize) * self.width as usize + x as usize]
     }
 
+    /// Overwrite the pixel at column `x`, row `y` with `c`. Panics outside the image.
     pub fn set(&mut self, x: u32, y: u32, c: Vec3) {
         self.pixels[(y as usize) * self.width as usize + x as usize] = c;
     }
@@ -257,11 +264,17 @@ impl ImageFormat {
 /// A crop window `[x0, x1) × [y0, y1)` of a `full_width × full_height` frame.
 #[derive(Clone, Copy, Debug, PartialEq, Eq)]
 pub struct Window {
+    /// First column of the window, in frame pixels.
     pub x0: u32,
+    /// First row of the window (row 0 at the top of the frame).
     pub y0: u32,
+    /// One past the last column: `x0 <= x1 <= full_width`.
     pub x1: u32,
+    /// One past the last row: `y0 <= y1 <= full_height`.
     pub y1: u32,
+    /// Width of the whole frame in pixels.
     pub full_width: u32,
+    /// Height of the whole frame in pixels.
     pub full_height: u32,
 }
 
@@ -274,14 +287,17 @@ impl Window {
         Window { x0: 0, y0: 0, x1: width, y1: height, full_width: width, full_height: height }
     }
 
+    /// The window's width in pixels, `x1 - x0`.
     pub fn width(&self) -> u32 {
         self.x1 - self.x0
     }
 
+    /// The window's height in pixels, `y1 - y0`.
     pub fn height(&self) -> u32 {
         self.y1 - self.y0
     }
 
+    /// Whether the window is the whole frame (no crop).
     pub fn is_full(&self) -> bool {
         *self == Window::full(self.full_width, self.full_height)
     }
@@ -576,15 +592,27 @@ pub fn check_writable(path: &Path) -> Result<ImageFormat, ImageError> {
 #[derive(Clone, Debug, PartialEq)]
 pub enum TilePixels {
     /// Interleaved bytes, `channels` (3 or 4) per pixel.
-    Srgb8 { channels: usize, data: Vec<u8> },
+    Srgb8 {
+        /// 3 for RGB, 4 for RGBA (straight alpha).
+        channels: usize,
+        /// The sRGB-encoded samples, row by row from the top-left pixel.
+        data: Vec<u8>,
+    },
     /// Interleaved floats, `channels` (3 or 4) per pixel.
-    Linear { channels: usize, data: Vec<f32> },
+    Linear {
+        /// 3 for RGB, 4 for RGBA (premultiplied alpha).
+        channels: usize,
+        /// The linear samples, row by row from the top-left pixel.
+        data: Vec<f32>,
+    },
 }
 
 /// An image file read back with its window (a whole frame when it records none).
 #[derive(Clone, Debug, PartialEq)]
 pub struct Tile {
+    /// Where the pixels sit in the full frame (the whole image when the file records none).
     pub window: Window,
+    /// The file's pixels, `window.width() * window.height()` of them.
     pub pixels: TilePixels,
     /// Whether the file recorded a window (PNG text chunk, or an EXR display window).
     pub has_window: bool,

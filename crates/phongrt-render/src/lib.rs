@@ -1,6 +1,7 @@
 //! A thin renderer on top of Embree: a world of flat or Phong objects, a camera, lights,
 //! tiles rendered in parallel with rayon, deterministic whatever the thread count.
 
+#![warn(missing_docs)]
 // Comparisons written `!(x > 0.0)` are deliberate throughout: they are true for NaN, which is
 // how bad input is turned away without a separate NaN test.
 #![allow(clippy::neg_cmp_op_on_partial_ord, clippy::nonminimal_bool)]
@@ -121,7 +122,9 @@ pub enum RenderError {
 /// What to render and how.
 #[derive(Clone, Debug)]
 pub struct RenderSettings {
+    /// Width of the full frame in pixels (default 640).
     pub width: u32,
+    /// Height of the full frame in pixels (default 480).
     pub height: u32,
     /// Samples per pixel (stratified on a square grid when a perfect square).
     pub spp: u32,
@@ -141,10 +144,15 @@ impl Default for RenderSettings {
 /// Rays traced, by kind.
 #[derive(Clone, Copy, Debug, Default, PartialEq, Eq)]
 pub struct RayCounts {
+    /// Camera rays, one per sample of the window's pixels.
     pub primary: u64,
+    /// Shadow rays towards the lights (only lights with shadows; area lights always).
     pub shadow: u64,
+    /// Reflection rays: off mirror materials, and the Fresnel reflection off transparent ones.
     pub reflection: u64,
+    /// Refraction rays (only for transparent materials).
     pub refraction: u64,
+    /// Ambient-occlusion rays (only with an [`AmbientOcclusion`] setting).
     pub ambient_occlusion: u64,
     /// Short rays that check a shadow-ray origin lift is clear (see [`world::Terminator::Lift`]).
     pub terminator: u64,
@@ -159,6 +167,7 @@ pub struct RayCounts {
 }
 
 impl RayCounts {
+    /// Every ray traced: all the counts but `specular` and `texture`, which are not rays.
     pub fn total(&self) -> u64 {
         self.primary
             + self.shadow
@@ -221,7 +230,9 @@ pub struct RenderOutput {
     pub alpha: Option<Vec<f32>>,
     /// Where `image` sits in the full frame.
     pub window: Window,
+    /// The rays traced for this image, by kind.
     pub rays: RayCounts,
+    /// Wall-clock time spent tracing the tiles.
     pub elapsed: Duration,
     /// The worker threads used.
     pub threads: usize,

@@ -44,28 +44,59 @@ pub const MAX_SCENE_FILE_BYTES: u64 = 16 << 20;
 pub enum SceneFileError {
     /// The cause is part of the message (not also a `source()`, so a chain prints it once).
     #[error("{path}: cannot read: {reason}")]
-    Io { path: PathBuf, reason: String },
+    Io {
+        /// The scene file.
+        path: PathBuf,
+        /// Why it could not be read (the OS error, not a regular file, or over the size limit).
+        reason: String,
+    },
+    /// The file is not UTF-8, not TOML, or does not fit the sections (an unknown key, a value
+    /// of the wrong type, a vector without exactly 3 numbers).
     #[error("{path}: {message}")]
-    Parse { path: PathBuf, message: String },
+    Parse {
+        /// The scene file.
+        path: PathBuf,
+        /// One line: `line N: section.key: reason` where the line and key are known.
+        message: String,
+    },
+    /// A value parsed but is out of range or inconsistent with another.
     #[error("{path}: {key}: {message}")]
-    Invalid { path: PathBuf, key: String, message: String },
+    Invalid {
+        /// The scene file.
+        path: PathBuf,
+        /// The key as written in the file, e.g. `camera.fov` or `light[0].radius` (0-based).
+        key: String,
+        /// What is wrong with the value.
+        message: String,
+    },
 }
 
+/// A parsed and checked scene file (see the module docs for its keys). Every key is optional
+/// and an unknown key is an error; what is left out keeps the command line's or
+/// [`WorldBuilder`](crate::WorldBuilder)'s default.
 #[derive(Debug, Default, Deserialize, Clone, PartialEq)]
 #[serde(deny_unknown_fields)]
 pub struct SceneFile {
     /// The OBJ file, relative to the scene file.
     pub obj: Option<PathBuf>,
+    /// `[camera]`: the view (default: framed automatically).
     #[serde(default)]
     pub camera: CameraSection,
+    /// `[render]`: image size, samples and the integrator's settings.
     #[serde(default)]
     pub render: RenderSection,
+    /// The `[[light]]` tables, in file order; if there is any, they replace the default key
+    /// light ([`default_lights`](crate::default_lights)).
     #[serde(default, rename = "light")]
     pub lights: Vec<LightSection>,
+    /// The `[[object]]` tables, applied in file order (a later entry overrides an earlier one
+    /// for the objects both match).
     #[serde(default, rename = "object")]
     pub objects: Vec<ObjectSection>,
+    /// `[ambient_occlusion]`: ambient light scaled by unoccluded fraction; none without it.
     pub ambient_occlusion: Option<AoSection>,
-    /// Crease angle for computed normals (degrees).
+    /// Crease angle for computed normals (degrees), in [0, 180]; default the command line's
+    /// `--crease-angle` (30). Used only where the OBJ has no normals.
     pub crease_angle: Option<f32>,
     /// A ground plane under the scene, receiving its shadows.
     pub ground: Option<GroundSection>,
@@ -78,9 +109,13 @@ pub struct SceneFile {
 #[derive(Debug, Default, Deserialize, Clone, PartialEq)]
 #[serde(deny_unknown_fields)]
 pub struct EnvironmentSection {
+    /// Constant linear RGB radiance from every direction, each >= 0.
     #[serde(default, deserialize_with = "opt_vec3")]
     pub color: Option<[f32; 3]>,
+    /// An equirectangular map of linear radiance, relative to the scene file, its top row
+    /// towards the camera's up axis.
     pub map: Option<PathBuf>,
+    /// Shadow rays towards the environment per shading point, in 1..=4096 (default 16).
     pub samples: Option<u32>,
 }
 
@@ -95,62 +130,94 @@ pub struct GroundSection {
     pub kd: Option<[f32; 3]>,
 }
 
+/// `[camera]`: each key left out comes from automatic framing (see [`crate::camera`]); the
+/// command line's `--eye`, `--look-at`, `--up` and `--fov` override the file.
 #[derive(Debug, Default, Deserialize, Clone, PartialEq)]
 #[serde(deny_unknown_fields)]
 pub struct CameraSection {
+    /// The camera position, in the OBJ's units; finite, and not equal to `look_at`.
     #[serde(default, deserialize_with = "opt_vec3")]
     pub eye: Option<[f32; 3]>,
+    /// The point seen at the image centre (default: from automatic framing).
     #[serde(default, deserialize_with = "opt_vec3")]
     pub look_at: Option<[f32; 3]>,
+    /// The direction shown upwards in the image: non-zero and not parallel to `look_at - eye`
+    /// (default: +y or +z, detected from the model).
     #[serde(default, deserialize_with = "opt_vec3")]
     pub up: Option<[f32; 3]>,
+    /// Vertical field of view in degrees, in (0, 180) (default 35).
     pub fov: Option<f32>,
     /// Turn the default view about the model's up axis (degrees).
     pub orbit: Option<f32>,
 }
 
+/// `[render]`: the command line's flags of the same names override these.
 #[derive(Debug, Default, Deserialize, Clone, PartialEq)]
 #[serde(deny_unknown_fields)]
 pub struct RenderSection {
+    /// Image width in pixels, in 1..=32768 (command-line default 800).
     pub width: Option<u32>,
+    /// Image height in pixels, in 1..=32768 (command-line default 600).
     pub height: Option<u32>,
+    /// Samples per pixel (anti-aliasing), in 1..=65536 (command-line default 1).
     pub spp: Option<u32>,
+    /// Deepest mirror-reflection/refraction bounce, in 0..=[`MAX_DEPTH`] (default 6); 0 traces
+    /// no reflection or refraction rays.
     pub max_depth: Option<u32>,
+    /// Linear RGB radiance of rays that hit nothing, each >= 0 (default [0.02, 0.02, 0.03]).
     #[serde(default, deserialize_with = "opt_vec3")]
     pub background: Option<[f32; 3]>,
+    /// Linear RGB ambient light, times the diffuse reflectance, each >= 0 (default 0.12 grey).
     #[serde(default, deserialize_with = "opt_vec3")]
     pub ambient: Option<[f32; 3]>,
     /// Shading normal of Phong surfaces: "adapted" (default), "paper" or "interpolated".
     pub shading: Option<String>,
-    /// Terminator of Phong surfaces: "lift" (default), "plain" or "band".
+    /// Terminator of Phong surfaces: "lift" (default), "lift-ng", "plain" or "band".
     pub terminator: Option<String>,
 }
 
+/// A `[[light]]` table, chosen by its `type` key: `"directional"`, `"point"` or `"sphere"`
+/// (see [`Light`](crate::Light) for how each lights a surface).
 #[derive(Debug, Deserialize, Clone, PartialEq)]
 #[serde(deny_unknown_fields, tag = "type", rename_all = "lowercase")]
 pub enum LightSection {
+    /// A light infinitely far away (a sun): parallel rays, no fall-off.
     Directional {
+        /// Towards the light, from the scene; required, finite and non-zero (any length).
         #[serde(deserialize_with = "vec3")]
         direction: [f32; 3],
+        /// Linear RGB irradiance on a surface facing the light, each >= 0 (default [1, 1, 1]).
         #[serde(default = "one3", deserialize_with = "vec3")]
         radiance: [f32; 3],
+        /// Whether it casts shadows (default true); false costs no shadow rays.
         #[serde(default = "yes")]
         shadows: bool,
     },
+    /// A point light, falling off with distance squared.
     Point {
+        /// Where the light is, in the OBJ's units; required, finite.
         #[serde(deserialize_with = "vec3")]
         position: [f32; 3],
+        /// Linear RGB radiant intensity (the irradiance at distance 1), each >= 0 (default
+        /// [1, 1, 1]).
         #[serde(default = "one3", deserialize_with = "vec3")]
         intensity: [f32; 3],
+        /// Whether it casts shadows (default true); false costs no shadow rays.
         #[serde(default = "yes")]
         shadows: bool,
     },
+    /// A spherical area light, always casting soft shadows.
     Sphere {
+        /// Centre of the sphere, in the OBJ's units; required, finite.
         #[serde(deserialize_with = "vec3")]
         center: [f32; 3],
+        /// Radius of the sphere, in the OBJ's units; required, > 0.
         radius: f32,
+        /// Linear RGB radiant intensity of the whole sphere (far away it lights as a point
+        /// light of this intensity), each >= 0 (default [1, 1, 1]).
         #[serde(default = "one3", deserialize_with = "vec3")]
         intensity: [f32; 3],
+        /// Shadow rays towards the sphere per shading point, in 1..=4096 (default 16).
         #[serde(default = "sixteen")]
         samples: u32,
     },
@@ -179,18 +246,29 @@ fn sixteen() -> u32 {
     16
 }
 
+/// An `[[object]]` table: the surface mode, Phong shape factor and material values of the
+/// objects it names; each value left out keeps what the OBJ/MTL and command line gave.
 #[derive(Debug, Deserialize, Clone, PartialEq)]
 #[serde(deny_unknown_fields)]
 pub struct ObjectSection {
     /// An object name from the OBJ, or "*" for every object.
     pub name: String,
+    /// `"phong"` or `"flat"` (see [`ObjectSection::mode_over`] for how it combines with
+    /// `alpha`).
     pub mode: Option<SurfaceMode>,
+    /// Phong shape factor in [0, 1]: 0 is the flat triangle, 1 the full bulge. Given without
+    /// `mode` it makes the objects Phong; `mode` without it uses 0.75.
     pub alpha: Option<f32>,
+    /// Diffuse reflectance (as MTL `Kd`), linear RGB, each >= 0.
     #[serde(default, deserialize_with = "opt_vec3")]
     pub kd: Option<[f32; 3]>,
+    /// Mirror reflectance, linear RGB, each >= 0; non-zero turns on reflection rays.
     #[serde(default, deserialize_with = "opt_vec3")]
     pub mirror: Option<[f32; 3]>,
+    /// Fraction of light transmitted (refracted), in [0, 1]; non-zero turns on refraction
+    /// rays and dims the diffuse part by `1 - transmission`.
     pub transmission: Option<f32>,
+    /// Index of refraction (as MTL `Ni`), >= 1.
     pub ior: Option<f32>,
     /// Highlight reflectance (as MTL `Ks` with `illum 2`), each in [0, 1].
     #[serde(default, deserialize_with = "opt_vec3")]
@@ -223,10 +301,14 @@ impl ObjectSection {
     }
 }
 
+/// `[ambient_occlusion]`: the ambient light is scaled by the fraction of `samples` rays from
+/// the shading point that meet nothing within `distance`. Both keys are required.
 #[derive(Debug, Deserialize, Clone, Copy, PartialEq)]
 #[serde(deny_unknown_fields)]
 pub struct AoSection {
+    /// Occlusion rays per shading point, in 1..=4096.
     pub samples: u32,
+    /// How far an occluder counts, in the OBJ's units; > 0.
     pub distance: f32,
 }
 

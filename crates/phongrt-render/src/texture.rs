@@ -8,7 +8,9 @@ use glam::{Vec2, Vec3};
 /// A linear-RGB texture.
 #[derive(Clone, Debug)]
 pub struct Texture {
+    /// Width in texels.
     pub width: u32,
+    /// Height in texels.
     pub height: u32,
     texels: Vec<Vec3>,
 }

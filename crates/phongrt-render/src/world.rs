@@ -63,18 +63,47 @@ pub enum ObjectMode {
     Flat,
     /// Phong tessellation with shape factor `alpha`, ray traced directly (user geometry).
     /// Crease and border edges are kept straight so the mesh stays closed.
-    Phong { alpha: f32 },
+    Phong {
+        /// Shape factor in [0, 1]: 0 is the flat triangle, 1 the full Phong bulge (default
+        /// [`phongrt::phong::DEFAULT_ALPHA`], 0.75).
+        alpha: f32,
+    },
 }
 
 /// A light source. `shadows: false` lights cost no shadow rays.
 #[derive(Clone, Copy, Debug, PartialEq)]
 pub enum Light {
     /// Light arriving from `direction` (pointing towards the light), irradiance `radiance`.
-    Directional { direction: Vec3, radiance: Vec3, shadows: bool },
+    Directional {
+        /// Towards the light, from the scene (any non-zero length; normalised when used).
+        direction: Vec3,
+        /// Linear RGB irradiance on a surface facing the light (no fall-off).
+        radiance: Vec3,
+        /// Whether the light casts shadows (one shadow ray per shading point).
+        shadows: bool,
+    },
     /// A point light with radiant intensity `intensity` (falls off with distance squared).
-    Point { position: Vec3, intensity: Vec3, shadows: bool },
+    Point {
+        /// Where the light is, in scene units.
+        position: Vec3,
+        /// Linear RGB radiant intensity: irradiance at distance 1, divided by distance squared
+        /// elsewhere.
+        intensity: Vec3,
+        /// Whether the light casts shadows (one shadow ray per shading point).
+        shadows: bool,
+    },
     /// A spherical area light: soft shadows from `samples` stratified shadow rays per shading point.
-    Sphere { center: Vec3, radius: f32, intensity: Vec3, samples: u32 },
+    Sphere {
+        /// Centre of the sphere, in scene units.
+        center: Vec3,
+        /// Radius of the sphere, in scene units (> 0).
+        radius: f32,
+        /// Linear RGB radiant intensity of the whole sphere, spread over its surface points:
+        /// far away it lights like a point light of this intensity.
+        intensity: Vec3,
+        /// Shadow rays per shading point (the scene file allows 1..=4096; 0 is taken as 1).
+        samples: u32,
+    },
 }
 
 impl Light {
@@ -331,7 +360,12 @@ pub enum EnvironmentSource {
     /// The same radiance from every direction.
     Constant(Vec3),
     /// An equirectangular (latitude-longitude) map of linear radiance, its top row towards `up`.
-    Map { texture: std::sync::Arc<Texture>, up: Vec3 },
+    Map {
+        /// The map's linear RGB radiance, shared (cloning the source does not copy it).
+        texture: std::sync::Arc<Texture>,
+        /// The direction the map's top row (its zenith) faces: the camera's up axis.
+        up: Vec3,
+    },
 }
 
 /// Light from all around (scene file `[environment]`): sampled by `samples` cosine-weighted
@@ -511,6 +545,7 @@ impl Object {
 /// Per-object choices (from the CLI or a scene file).
 #[derive(Clone, Debug)]
 pub struct ObjectSettings {
+    /// Flat triangles or Phong tessellation, with Phong's shape factor.
     pub mode: ObjectMode,
     /// Keep crease and border edges straight (Phong mode), so patches beside a crease share their
     /// edge. `false` bends every edge by its own normals, as plain Phong tessellation does: only
