@@ -251,8 +251,7 @@ impl RenderJob {
         };
         let mut builder = World::builder(device, &self.input).lights([key_light]);
         if let Some(sf) = &self.source.file {
-            let dir = self.source.file_path.parent().unwrap_or(Path::new("."));
-            builder = builder.scene_file(sf, dir, self.camera.up)?;
+            builder = builder.scene_file(sf, &self.source.file_path, self.camera.up)?;
         }
         let builder = builder
             .settings(|_, mesh| self.modes.settings(forced, mesh))

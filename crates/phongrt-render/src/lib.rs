@@ -91,6 +91,9 @@ pub enum RenderError {
     /// The environment map cannot be used: the message names the file and what is wrong.
     #[error("{0}")]
     Environment(String),
+    /// A scene file's value out of range (the file, the key and what is wrong).
+    #[error(transparent)]
+    SceneFile(#[from] scene_file::SceneFileError),
     /// The ground plane's up direction or height is zero or not finite.
     #[error("ground: the up direction or height is zero or not finite")]
     Ground,

@@ -377,8 +377,10 @@ impl SceneFile {
         self.obj.as_ref().map(|o| scene_path.parent().unwrap_or(Path::new(".")).join(o))
     }
 
-    /// Check every value of the file, section by section; the first problem found is the error.
-    fn check(&self, path: &Path) -> Result<(), SceneFileError> {
+    /// Check every value of the file, section by section, as [`SceneFile::load`] does; the first
+    /// problem found is the error, naming `path`. [`crate::WorldBuilder::scene_file`] runs it too,
+    /// so a `SceneFile` built in code is held to the same ranges as one read from disk.
+    pub fn check(&self, path: &Path) -> Result<(), SceneFileError> {
         let c = Checker { path };
         c.camera(&self.camera)?;
         c.render(&self.render)?;

@@ -201,11 +201,14 @@ impl<'a> WorldBuilder<'a> {
     /// max_depth, shading and terminator; `[[light]]`s (replacing the lights if there is one);
     /// `[ambient_occlusion]`; `[ground]` (perpendicular to `up`, sized by the scene); each
     /// `[[object]]`'s mode and alpha (over the per-mesh settings) and material values (a
-    /// [`WorldBuilder::surface`] override); `[environment]`, a map read from `dir` (the scene
-    /// file's folder) with its top row towards `up`. The camera, image size, samples and crease
-    /// angle are not the world's: the caller reads them. A one-line error naming the map if it
-    /// cannot be read.
-    pub fn scene_file(mut self, sf: &SceneFile, dir: &Path, up: Vec3) -> Result<Self, RenderError> {
+    /// [`WorldBuilder::surface`] override); `[environment]`, a map read beside `path` (the scene
+    /// file's path, which the errors name) with its top row towards `up`. The camera, image size, samples and crease
+    /// angle are not the world's: the caller reads them. A one-line error naming the file and key of
+    /// a value out of range (the file's checks are run again here, for a `SceneFile` built in
+    /// code), or the map if it cannot be read.
+    pub fn scene_file(mut self, sf: &SceneFile, path: &Path, up: Vec3) -> Result<Self, RenderError> {
+        sf.check(path)?;
+        let dir = path.parent().unwrap_or(Path::new("."));
         // Compute the integrator's settings and the lights.
         let up = up.normalize_or_zero();
         let r = &sf.render;
@@ -449,6 +452,19 @@ mod tests {
     }
 
     #[test]
+    fn a_scene_file_built_in_code_is_checked_as_one_read_from_disk() {
+        let device = Device::new().unwrap();
+        let scene = two_spheres();
+        let mut sf = SceneFile::default();
+        sf.render.max_depth = Some(1000);
+        let Err(e) = World::builder(&device, &scene).scene_file(&sf, Path::new("code.toml"), Vec3::Y) else {
+            panic!("a max_depth of 1000 was accepted");
+        };
+        let e = e.to_string();
+        assert!(e.starts_with("code.toml") && e.contains("render.max_depth") && !e.contains('\n'), "{e}");
+    }
+
+    #[test]
     fn a_scene_files_object_overrides_apply_to_the_named_object_and_star_to_all_but_the_ground() {
         let device = Device::new().unwrap();
         let scene = two_spheres();
@@ -463,7 +479,7 @@ mod tests {
         .unwrap();
         let world = World::builder(&device, &scene)
             .ground(Some(Ground::default()))
-            .scene_file(&sf, Path::new("."), Vec3::Y)
+            .scene_file(&sf, Path::new("code.toml"), Vec3::Y)
             .unwrap()
             .build()
             .unwrap();
@@ -489,7 +505,8 @@ mod tests {
         let device = Device::new().unwrap();
         let scene = two_spheres();
         let sf = SceneFile::parse("[environment]\nmap = \"nope.hdr\"\n", Path::new("s.toml")).unwrap();
-        let Err(e) = World::builder(&device, &scene).scene_file(&sf, Path::new("/no/such/dir"), Vec3::Y)
+        let Err(e) =
+            World::builder(&device, &scene).scene_file(&sf, Path::new("/no/such/dir/a.toml"), Vec3::Y)
         else {
             panic!("a missing map was accepted");
         };
