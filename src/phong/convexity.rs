@@ -165,7 +165,7 @@ fn add(x: Sym2, y: Sym2) -> Sym2 {
 }
 
 fn norm2(x: [f64; 2]) -> f64 {
-    x[0].hypot(x[1])
+    (x[0] * x[0] + x[1] * x[1]).sqrt()
 }
 
 /// The multipliers `(a, b)` of [`leaves_curved`], chosen (any choice is sound; this one makes
