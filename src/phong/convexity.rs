@@ -144,6 +144,152 @@ pub fn leaves_patch<T: Real>(
     };
     let height = (o - p0).dot(n);
     height > top + margin
+        || (!convex && curved_rule::on() && leaves_curved(&[a, b, c], [u, v], pu, pv, p0 - o, dl, n))
+}
+
+/// A symmetric 2×2 matrix `[m11, m12, m22]`: the quadratic form `m11 x² + 2 m12 x y + m22 y²`.
+type Sym2 = [f64; 3];
+
+/// The form `δ ↦ Q(δ)·x` of the patch's second-order part `Q(δ) = A du² + B dv² + C du dv`.
+fn form(q: &[V3<f64>; 3], x: V3<f64>) -> Sym2 {
+    [q[0].dot(x), 0.5 * q[2].dot(x), q[1].dot(x)]
+}
+
+/// The form `δ ↦ (p·δ)(q·δ)`.
+fn outer(p: [f64; 2], q: [f64; 2]) -> Sym2 {
+    [p[0] * q[0], 0.5 * (p[0] * q[1] + p[1] * q[0]), p[1] * q[1]]
+}
+
+fn add(x: Sym2, y: Sym2) -> Sym2 {
+    [x[0] + y[0], x[1] + y[1], x[2] + y[2]]
+}
+
+fn norm2(x: [f64; 2]) -> f64 {
+    (x[0] * x[0] + x[1] * x[1]).sqrt()
+}
+
+/// The multipliers `(a, b)` of [`leaves_curved`], chosen (any choice is sound; this one makes
+/// the proof go through where it can) so that the second-order part of `F` is negative
+/// definite: in the coordinates `y = (jd·δ, jw·δ)` (how far a point lies ahead of and beside the
+/// ray, to first order) `a` cancels the patch's curvature across the ray and beside it, `b` its
+/// upward curvature along the ray. `None` for a ray along the normal (no such coordinates).
+fn multipliers(hn: Sym2, jd: [f64; 2], jw: [f64; 2]) -> Option<([f64; 2], [f64; 2])> {
+    // Compute K^-1 for y = K δ, K's rows jd and jw, and the curvature in y: K^-T Hn K^-1.
+    let det = jd[0] * jw[1] - jd[1] * jw[0];
+    if !(det.abs() > 1e-12 * norm2(jd) * norm2(jw)) {
+        return None;
+    }
+    let ki = [[jw[1] / det, -jd[1] / det], [-jw[0] / det, jd[0] / det]];
+    let col = |j: usize| [ki[0][j], ki[1][j]];
+    let quad = |x: [f64; 2], y: [f64; 2]| {
+        x[0] * (hn[0] * y[0] + hn[1] * y[1]) + x[1] * (hn[1] * y[0] + hn[2] * y[1])
+    };
+    let h = [quad(col(0), col(0)), quad(col(0), col(1)), quad(col(1), col(1))];
+    // Compute the multipliers in y, leaving -c on the diagonal, and back in δ: a = K^T a'.
+    let c = 0.25 * (h[0].abs() + h[2].abs()) + 0.5 * h[1].abs();
+    let ay = [-2.0 * h[1], -(h[2] + c)];
+    let by = [if h[0] > -c { -(h[0] + c) } else { 0.0 }, 0.0];
+    let back = |y: [f64; 2]| [jd[0] * y[0] + jw[0] * y[1], jd[1] * y[0] + jw[1] * y[1]];
+    Some((back(ay), back(by)))
+}
+
+/// Whether the ray `o + t dl`, `t > 0`, leaving the point `p0 = o + g0` of a patch (second-order
+/// coefficients `q = [A, B, C]`, partials `pu`, `pv` at `uv`) on the side of the normal `n`
+/// (`dl·n > 0`), provably never meets the patch, though the patch may bend towards the ray (a
+/// saddle, or a bowl seen from inside).
+///
+/// The proof: with `G(δ) = P(uv + δ) - o` (a quadratic in `δ`), `w = n × dl` and any `a`, `b`,
+/// let `F(δ) = G·n + (a·δ)(G·w) + (b·δ)(G·dl)`. At a hit `G = t dl` with `t > 0`, so `G·w = 0`
+/// and `F = t (dl·n + |dl|² b·δ)`, which is `>= 0` wherever `dl·n + |dl|² b·δ >= 0`. So if that
+/// linear function is positive at the triangle's three corners (hence all over it) and `F < 0`
+/// all over the triangle, there is no hit. `F` is a cubic in `δ`: `F(0) = (p0 - o)·n` (minus the
+/// origin's height), a linear part that is rounding alone where `o - p0` lies along `n`, a
+/// quadratic part made negative definite by the choice of `a`, `b` ([`multipliers`]) and a cubic
+/// part bounded by `|a| |Hw| + |b| |Hd|` times `|δ|³`. So `F(δ) <= φ(|δ|) = F(0) + |l| r + λ r² +
+/// C r³`, with `λ` the larger eigenvalue of the quadratic part, and `φ < 0` on `[0, R]`, `R` the
+/// farthest corner, is checked at `R` and at `φ`'s local maximum, with a margin far above the
+/// f64 rounding of the coefficients (they are computed as they are, not assumed to cancel).
+fn leaves_curved(
+    q: &[V3<f64>; 3],
+    uv: [f64; 2],
+    pu: V3<f64>,
+    pv: V3<f64>,
+    g0: V3<f64>,
+    dl: V3<f64>,
+    n: V3<f64>,
+) -> bool {
+    // Compute the first-order terms along n, w and dl, and the multipliers.
+    let w = n.cross(dl);
+    let j = |x: V3<f64>| [pu.dot(x), pv.dot(x)];
+    let (jn, jw, jd) = (j(n), j(w), j(dl));
+    let hn = form(q, n);
+    let Some((a, b)) = multipliers(hn, jd, jw) else { return false };
+    // Compute the corners' offsets, the farthest one, and check the sign of dl·n + |dl|² b·δ.
+    let corners = [[-uv[0], -uv[1]], [1.0 - uv[0], -uv[1]], [-uv[0], 1.0 - uv[1]]];
+    let r = corners.iter().map(|&c| norm2(c)).fold(0.0, f64::max);
+    let (sd, dd) = (dl.dot(n), dl.dot(dl));
+    let bmag = norm2(b) * r * dd;
+    if !corners.iter().all(|c| sd + dd * (b[0] * c[0] + b[1] * c[1]) > 1e-10 * (sd.abs() + bmag)) {
+        return false;
+    }
+    // Compute F's Taylor coefficients at δ = 0 as they are.
+    let (gw, gd) = (g0.dot(w), g0.dot(dl));
+    let f0 = g0.dot(n);
+    let lin = [jn[0] + a[0] * gw + b[0] * gd, jn[1] + a[1] * gw + b[1] * gd];
+    let h = add(hn, add(outer(a, jw), outer(b, jd)));
+    let lambda = 0.5 * (h[0] + h[2]) + (0.25 * (h[0] - h[2]).powi(2) + h[1] * h[1]).sqrt();
+    let frob = |m: Sym2| (m[0] * m[0] + 2.0 * m[1] * m[1] + m[2] * m[2]).sqrt();
+    let cubic = norm2(a) * frob(form(q, w)) + norm2(b) * frob(form(q, dl));
+    // Compute the margin: F's terms are products of these magnitudes.
+    let gmag = g0.length()
+        + (pu.length() + pv.length()) * r
+        + (q[0].length() + q[1].length() + q[2].length()) * r * r;
+    let margin = 1e-10 * gmag * (n.length() + norm2(a) * r * w.length() + norm2(b) * r * dl.length());
+    cubic_bound_negative(f0, norm2(lin), lambda, cubic, r, margin)
+}
+
+/// Whether `φ(r) = f0 + l r + λ r² + c r³` (`l, c >= 0`) stays below `-margin` on `[0, rmax]`:
+/// checked at `rmax` and at the local maximum `φ' = 0` (the smaller root), if inside.
+fn cubic_bound_negative(f0: f64, l: f64, lambda: f64, c: f64, rmax: f64, margin: f64) -> bool {
+    let phi = |r: f64| f0 + r * (l + r * (lambda + r * c));
+    if !(lambda < 0.0 && phi(0.0) < -margin && phi(rmax) < -margin) {
+        return false;
+    }
+    // Compute φ's critical points: 3c r² + 2λ r + l = 0.
+    let disc = lambda * lambda - 3.0 * c * l;
+    if !(disc >= 0.0) {
+        return true; // φ increasing: its maximum is at rmax
+    }
+    let r = if c > 0.0 { (-lambda - disc.sqrt()) / (3.0 * c) } else { -l / (2.0 * lambda) };
+    !(r > 0.0 && r < rmax) || phi(r) < -margin
+}
+
+/// The switch for the curved rule of [`leaves_patch`] ([`leaves_curved`]): on unless turned off
+/// with [`curved_rule::set`] or, for a whole process, the environment variable
+/// `PHONGRT_ORIGIN_CURVED_RULE=0` (then only the tangent-plane bound settles rays).
+pub mod curved_rule {
+    use std::sync::atomic::{AtomicU8, Ordering};
+
+    /// 0: not yet read from the environment, 1: off, 2: on.
+    static STATE: AtomicU8 = AtomicU8::new(0);
+
+    /// Turn the curved rule on or off (process-wide).
+    pub fn set(on: bool) {
+        STATE.store(if on { 2 } else { 1 }, Ordering::SeqCst);
+    }
+
+    /// Whether the curved rule is on.
+    #[inline]
+    pub fn on() -> bool {
+        match STATE.load(Ordering::Relaxed) {
+            0 => {
+                let on = std::env::var_os("PHONGRT_ORIGIN_CURVED_RULE").is_none_or(|v| v != "0");
+                let _ = STATE.compare_exchange(0, if on { 2 } else { 1 }, Ordering::SeqCst, Ordering::SeqCst);
+                STATE.load(Ordering::SeqCst) == 2
+            }
+            s => s == 2,
+        }
+    }
 }
 
 /// The audit of origin skips: while on, every patch solve left out by [`leaves_patch`] is run
@@ -279,6 +425,25 @@ mod tests {
         let d = V3::new(2.0 / 3.0, -1.0 / 3.0, 0.01);
         assert!(!leaves_patch(&b, convexity(&b), u, v, org, d, 0.0));
         assert!(intersect(&b, org, d, 0.0, f32::INFINITY, Method::Certified).is_some());
+    }
+
+    #[test]
+    fn rays_leaving_a_saddle_are_settled_by_the_curved_rule_and_none_of_them_hits() {
+        // Half the random rays start below the surface or leave downwards; `settled` checks
+        // that none of those settled is hit by the f64 solve.
+        let n = settled(&saddle(), 1e-5, 4000, 5);
+        assert!(n > 400, "{n}");
+        // A ray from the middle, rising steeply towards the falling corner u = 1, is settled
+        // though the patch rises above its tangent plane there towards the corner v = 1.
+        let p = saddle();
+        let (u, v) = (0.3, 0.3);
+        let ng = p.geometric_normal(u, v).unwrap();
+        let org = p.eval(u, v) + ng * 1e-5;
+        let d = V3::new(1.0, 0.0, 0.0) + ng * 0.5;
+        assert!((p.eval(0.0, 1.0) - org).dot(ng) > 0.01, "the corner v = 1 is not above the origin");
+        assert!(leaves_patch(&p, convexity(&p), u, v, org, d, 0.0));
+        assert!(intersect(&p.cast::<f64>(), org.cast(), d.cast(), 0.0, f64::INFINITY, Method::Certified)
+            .is_none());
     }
 
     #[test]

@@ -98,3 +98,17 @@ fn no_skipped_origin_test_of_an_in_repo_scene_file_would_have_hit() {
             .success();
     }
 }
+
+#[test]
+#[ignore = "needs ../shared/corpus"]
+fn no_skipped_origin_test_of_the_african_head_would_have_hit() {
+    // Most of the head's patches are saddles: its skips are mostly the curved rule's.
+    audit::set(true);
+    let device = Device::new().unwrap();
+    let before = audit::counts().0;
+    render_audited(&device, &common::corpus_required().join("african_head/african_head.obj"));
+    let (skipped, hits) = audit::counts();
+    assert!(skipped > before, "no origin test was skipped");
+    assert_eq!(hits, 0);
+    eprintln!("{} skipped origin tests of the head audited, none a hit", skipped - before);
+}
