@@ -1,13 +1,14 @@
 //! The origin skip is exact: an occlusion ray that starts on a Phong patch leaves that patch out
 //! (without a solve) only where it provably cannot hit it. Audited here over renders of every
-//! in-repo scene: each skipped solve is run anyway, and one that hits fails the render.
+//! in-repo scene: each skipped solve is run anyway, and one that hits fails the render. The
+//! curved rule (off by default) is turned on here, so its skips are audited too.
 mod common;
 use std::path::{Path, PathBuf};
 
 use assert_cmd::Command;
 use glam::Vec3;
 use phongrt::embree::Device;
-use phongrt::phong::convexity::audit;
+use phongrt::phong::convexity::{audit, curved_rule};
 use phongrt::scene::{load_obj, LoadOptions};
 use phongrt_render::{
     default_lights, render, AmbientOcclusion, Camera, Light, ObjectMode, RenderSettings, Terminator, World,
@@ -57,6 +58,7 @@ fn render_audited(device: &Device, path: &Path) {
 #[test]
 fn no_skipped_origin_test_of_an_in_repo_scene_would_have_hit() {
     audit::set(true);
+    curved_rule::set(true); // off by default: audited on, with every other rule
     let device = Device::new().unwrap();
     let objs = scenes("obj");
     assert!(objs.len() >= 5, "{objs:?}");
@@ -81,6 +83,7 @@ fn no_skipped_origin_test_of_an_in_repo_scene_file_would_have_hit() {
             .unwrap()
             .current_dir(common::root())
             .env("PHONGRT_AUDIT_ORIGIN_SKIPS", "1")
+            .env("PHONGRT_ORIGIN_CURVED_RULE", "1")
             .args([
                 "render",
                 path.to_str().unwrap(),
@@ -104,6 +107,7 @@ fn no_skipped_origin_test_of_an_in_repo_scene_file_would_have_hit() {
 fn no_skipped_origin_test_of_the_african_head_would_have_hit() {
     // Most of the head's patches are saddles: its skips are mostly the curved rule's.
     audit::set(true);
+    curved_rule::set(true); // off by default: audited on, with every other rule
     let device = Device::new().unwrap();
     let before = audit::counts().0;
     render_audited(&device, &common::corpus_required().join("african_head/african_head.obj"));
