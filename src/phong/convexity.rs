@@ -431,7 +431,8 @@ mod tests {
 
     #[test]
     fn rays_leaving_a_saddle_are_settled_by_the_curved_rule_and_none_of_them_hits() {
-        curved_rule::set(true); // off by default (the other tests here pass with it either way)
+        // The curved rule is off by default (the other tests here pass with it either way).
+        curved_rule::set(true);
         // Half the random rays start below the surface or leave downwards; `settled` checks
         // that none of those settled is hit by the f64 solve.
         let n = settled(&saddle(), 1e-5, 4000, 5);

@@ -58,7 +58,8 @@ fn render_audited(device: &Device, path: &Path) {
 #[test]
 fn no_skipped_origin_test_of_an_in_repo_scene_would_have_hit() {
     audit::set(true);
-    curved_rule::set(true); // off by default: audited on, with every other rule
+    // The curved rule is off by default: audited on, with every other rule.
+    curved_rule::set(true);
     let device = Device::new().unwrap();
     let objs = scenes("obj");
     assert!(objs.len() >= 5, "{objs:?}");
@@ -107,7 +108,8 @@ fn no_skipped_origin_test_of_an_in_repo_scene_file_would_have_hit() {
 fn no_skipped_origin_test_of_the_african_head_would_have_hit() {
     // Most of the head's patches are saddles: its skips are mostly the curved rule's.
     audit::set(true);
-    curved_rule::set(true); // off by default: audited on, with every other rule
+    // The curved rule is off by default: audited on, with every other rule.
+    curved_rule::set(true);
     let device = Device::new().unwrap();
     let before = audit::counts().0;
     render_audited(&device, &common::corpus_required().join("african_head/african_head.obj"));
