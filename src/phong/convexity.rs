@@ -12,7 +12,7 @@
 //! coefficients of `A·N`, `B·N` and `4 (A·N)(B·N) - (C·N)²` over the triangle, `N = Pu × Pv`;
 //! [`leaves_patch`] decides one ray, with a bound on whatever the proof does not cover.
 
-use std::sync::atomic::{AtomicU64, Ordering};
+use std::sync::atomic::{AtomicU64, AtomicU8, Ordering};
 
 use super::patch::{quadratic_range, Patch};
 use super::real::{Real, V3};
@@ -270,24 +270,51 @@ fn cubic_bound_negative(f0: f64, l: f64, lambda: f64, c: f64, rmax: f64, margin:
 /// Off by default because on the bench's head it costs more than the solves it saves (README,
 /// "The patch a shadow ray starts on").
 pub mod curved_rule {
-    use std::sync::atomic::{AtomicU8, Ordering};
+    use super::EnvSwitch;
 
-    /// 0: not yet read from the environment, 1: off, 2: on.
-    static STATE: AtomicU8 = AtomicU8::new(0);
+    static SWITCH: EnvSwitch = EnvSwitch::new("PHONGRT_ORIGIN_CURVED_RULE");
 
     /// Turn the curved rule on or off (process-wide).
     pub fn set(on: bool) {
-        STATE.store(if on { 2 } else { 1 }, Ordering::SeqCst);
+        SWITCH.set(on);
     }
 
     /// Whether the curved rule is on.
     #[inline]
     pub fn on() -> bool {
-        match STATE.load(Ordering::Relaxed) {
+        SWITCH.on()
+    }
+}
+
+/// A process-wide switch: off unless [`EnvSwitch::set`] turns it on or, read once when first asked,
+/// its environment variable is `1`. A `set` made before that first read wins over the environment.
+struct EnvSwitch {
+    var: &'static str,
+    /// 0: not yet read from the environment, 1: off, 2: on.
+    state: AtomicU8,
+}
+
+impl EnvSwitch {
+    const fn new(var: &'static str) -> Self {
+        EnvSwitch { var, state: AtomicU8::new(0) }
+    }
+
+    fn set(&self, on: bool) {
+        self.state.store(if on { 2 } else { 1 }, Ordering::SeqCst);
+    }
+
+    #[inline]
+    fn on(&self) -> bool {
+        match self.state.load(Ordering::Relaxed) {
             0 => {
-                let on = std::env::var_os("PHONGRT_ORIGIN_CURVED_RULE").is_some_and(|v| v == "1");
-                let _ = STATE.compare_exchange(0, if on { 2 } else { 1 }, Ordering::SeqCst, Ordering::SeqCst);
-                STATE.load(Ordering::SeqCst) == 2
+                let on = std::env::var_os(self.var).is_some_and(|v| v == "1");
+                let _ = self.state.compare_exchange(
+                    0,
+                    if on { 2 } else { 1 },
+                    Ordering::SeqCst,
+                    Ordering::SeqCst,
+                );
+                self.state.load(Ordering::SeqCst) == 2
             }
             s => s == 2,
         }
@@ -299,31 +326,21 @@ pub mod curved_rule {
 /// resumed in the caller of the query). On with [`audit::set`], or for a whole process with the
 /// environment variable `PHONGRT_AUDIT_ORIGIN_SKIPS=1` (how the tests audit `phongrt render`).
 pub mod audit {
-    use super::{AtomicU64, Ordering};
-    use std::sync::atomic::AtomicU8;
+    use super::{AtomicU64, EnvSwitch, Ordering};
 
-    /// 0: not yet read from the environment, 1: off, 2: on.
-    static STATE: AtomicU8 = AtomicU8::new(0);
+    static SWITCH: EnvSwitch = EnvSwitch::new("PHONGRT_AUDIT_ORIGIN_SKIPS");
     static SKIPPED: AtomicU64 = AtomicU64::new(0);
     static HITS: AtomicU64 = AtomicU64::new(0);
 
     /// Turn the audit on or off (process-wide).
     pub fn set(on: bool) {
-        STATE.store(if on { 2 } else { 1 }, Ordering::SeqCst);
+        SWITCH.set(on);
     }
 
     /// Whether the audit is on.
     #[inline]
     pub fn on() -> bool {
-        match STATE.load(Ordering::Relaxed) {
-            0 => {
-                let on = std::env::var_os("PHONGRT_AUDIT_ORIGIN_SKIPS").is_some_and(|v| v == "1");
-                // Another thread's `set` wins over the environment.
-                let _ = STATE.compare_exchange(0, if on { 2 } else { 1 }, Ordering::SeqCst, Ordering::SeqCst);
-                STATE.load(Ordering::SeqCst) == 2
-            }
-            s => s == 2,
-        }
+        SWITCH.on()
     }
 
     /// Count one audited skip of patch `prim`; `hit` is the `t` its full solve found, if any.
