@@ -287,14 +287,15 @@ impl Window {
         Window { x0: 0, y0: 0, x1: width, y1: height, full_width: width, full_height: height }
     }
 
-    /// The window's width in pixels, `x1 - x0`.
+    /// The window's width in pixels, `x1 - x0` (0 for a window with `x1 < x0`, which no
+    /// render or stitch accepts: the fields are public, so one can be built).
     pub fn width(&self) -> u32 {
-        self.x1 - self.x0
+        self.x1.saturating_sub(self.x0)
     }
 
-    /// The window's height in pixels, `y1 - y0`.
+    /// The window's height in pixels, `y1 - y0` (0 for a window with `y1 < y0`).
     pub fn height(&self) -> u32 {
-        self.y1 - self.y0
+        self.y1.saturating_sub(self.y0)
     }
 
     /// Whether the window is the whole frame (no crop).
@@ -787,4 +788,23 @@ fn check_size(path: &Path, win: &Window, w: u32, h: u32) -> Result<(), ImageErro
         return Ok(());
     }
     Err(ImageError::WindowSize { path: path.to_path_buf(), window: *win, width: w, height: h })
+}
+
+#[cfg(test)]
+mod tests {
+    use super::Window;
+
+    #[test]
+    fn window_text_round_trips_and_refuses_inverted_windows() {
+        let w = Window { x0: 2, y0: 3, x1: 10, y1: 7, full_width: 16, full_height: 8 };
+        assert_eq!(Window::from_text(&w.to_text()), Some(w));
+        assert_eq!(Window::from_text("10,3,2,7 of 16x8"), None);
+        assert_eq!(Window::from_text("2,3,10,9 of 16x8"), None);
+    }
+
+    #[test]
+    fn inverted_window_has_zero_size_instead_of_wrapping() {
+        let w = Window { x0: 10, y0: 7, x1: 2, y1: 3, full_width: 16, full_height: 8 };
+        assert_eq!((w.width(), w.height()), (0, 0));
+    }
 }
