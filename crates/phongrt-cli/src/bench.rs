@@ -1018,13 +1018,12 @@ fn rgb_image(w: u32, h: u32, buf: Vec<u8>) -> Result<image::RgbImage, PlotError>
     image::RgbImage::from_raw(w, h, buf).ok_or(PlotError::Buffer)
 }
 
-/// Error against time, log–log, one panel per scene: each method a point (legend on the right)
+/// Error against time, log–log, one panel per scene: each method a point (legend in a column on
+/// the right, flat a ring drawn over the others)
 /// at (ns per primary ray on one thread, mean relative t error; errors below 1e-9 drawn at 1e-9).
 /// Drawn with plotters into an 8-bit sRGB buffer.
 pub fn plot(rows: &[BenchRow]) -> Result<image::RgbImage, PlotError> {
     use plotters::prelude::*;
-    // Fast and exact (the ideal corner) is where no method sits.
-    const LEGEND: SeriesLabelPosition = SeriesLabelPosition::LowerLeft;
     register_plot_font()?;
     let scenes: Vec<&str> = {
         let mut v: Vec<&str> = rows.iter().map(|r| r.scene.as_str()).collect();
@@ -1038,7 +1037,9 @@ pub fn plot(rows: &[BenchRow]) -> Result<image::RgbImage, PlotError> {
         let root = BitMapBackend::with_buffer(&mut buf, (pw, height)).into_drawing_area();
         root.fill(&WHITE).map_err(plot_error)?;
         let panels = root.split_evenly((scenes.len().max(1), 1));
-        for (panel, sc) in panels.iter().zip(&scenes) {
+        for (whole, sc) in panels.iter().zip(&scenes) {
+            // The legend goes beside the chart, where it can hide no point.
+            let (panel, legend) = whole.split_horizontally(pw - LEGEND_WIDTH);
             let rs: Vec<&BenchRow> = rows.iter().filter(|r| r.scene == *sc).collect();
             let pts: Vec<(f64, f64)> =
                 rs.iter().map(|r| (1e3 / r.mrays_1t.max(1e-9), r.err_t_mean.max(1e-9))).collect();
@@ -1047,7 +1048,7 @@ pub fn plot(rows: &[BenchRow]) -> Result<image::RgbImage, PlotError> {
                 pts.iter().map(|p| p.0).fold(f64::MIN, f64::max),
             );
             let yr = decades(1e-9, pts.iter().map(|p| p.1).fold(1e-8, f64::max));
-            let mut chart = ChartBuilder::on(panel)
+            let mut chart = ChartBuilder::on(&panel)
                 .caption(format!("{sc}: mean relative t error vs time per ray"), ("sans-serif", 20))
                 .margin(12)
                 .margin_right(24)
@@ -1064,23 +1065,25 @@ pub fn plot(rows: &[BenchRow]) -> Result<image::RgbImage, PlotError> {
                 .label_style(("sans-serif", 13))
                 .draw()
                 .map_err(plot_error)?;
-            for (row, p) in rs.iter().zip(&pts) {
+            // Flat is a ring drawn last: a method with flat's time and error (pretess-1 on a
+            // fine mesh, the same triangles) would otherwise hide it.
+            let flat = |r: &&&BenchRow| r.method == BenchMethod::Flat;
+            for (row, p) in rs.iter().zip(&pts).filter(|(r, _)| !flat(r)) {
                 let c = series_colour(row.method);
                 let marker = if row.method.is_direct() { 6 } else { 4 };
                 chart
                     .draw_series(std::iter::once(Circle::new(*p, marker, c.filled())))
-                    .map_err(plot_error)?
-                    .label(row.method.name())
-                    .legend(move |(x, y)| Circle::new((x + 6, y), 4, c.filled()));
+                    .map_err(plot_error)?;
             }
-            chart
-                .configure_series_labels()
-                .position(LEGEND)
-                .label_font(("sans-serif", 12))
-                .background_style(WHITE.mix(0.9))
-                .border_style(BLACK)
-                .draw()
-                .map_err(plot_error)?;
+            for (row, p) in rs.iter().zip(&pts).filter(|(r, _)| flat(r)) {
+                let c = series_colour(row.method);
+                chart
+                    .draw_series(std::iter::once(Circle::new(*p, 7, c.stroke_width(2))))
+                    .map_err(plot_error)?;
+            }
+            let entries: Vec<(String, RGBColor)> =
+                rs.iter().map(|r| (r.method.name().to_string(), series_colour(r.method))).collect();
+            draw_legend(&legend, &entries, LegendMark::Point)?;
         }
         root.present().map_err(plot_error)?;
     }
@@ -1088,7 +1091,8 @@ pub fn plot(rows: &[BenchRow]) -> Result<image::RgbImage, PlotError> {
 }
 
 /// Build time and memory against scene size, log–log: two panels, one line per method through
-/// its scenes in order of triangle count. Drawn with plotters into an 8-bit sRGB buffer.
+/// its scenes in order of triangle count (legend in a column on the right). Drawn with plotters
+/// into an 8-bit sRGB buffer.
 pub fn plot_scaling(rows: &[BenchRow]) -> Result<image::RgbImage, PlotError> {
     use plotters::prelude::*;
     register_plot_font()?;
@@ -1108,7 +1112,12 @@ pub fn plot_scaling(rows: &[BenchRow]) -> Result<image::RgbImage, PlotError> {
         let root = BitMapBackend::with_buffer(&mut buf, (pw, ph * 2)).into_drawing_area();
         root.fill(&WHITE).map_err(plot_error)?;
         for (area, panel) in root.split_evenly((2, 1)).iter().zip(panels) {
-            scaling_panel(area, panel, rows, &methods)?;
+            // The legend goes beside the chart, where it can hide no line.
+            let (chart, legend) = area.split_horizontally(pw - LEGEND_WIDTH);
+            scaling_panel(&chart, panel, rows, &methods)?;
+            let entries: Vec<(String, RGBColor)> =
+                methods.iter().map(|m| (m.to_string(), series_colour(*m))).collect();
+            draw_legend(&legend, &entries, LegendMark::Line)?;
         }
         root.present().map_err(plot_error)?;
     }
@@ -1127,8 +1136,6 @@ fn scaling_panel(
     methods: &[BenchMethod],
 ) -> Result<(), PlotError> {
     use plotters::prelude::*;
-    // Few triangles and much time or memory: where no line goes.
-    const LEGEND: SeriesLabelPosition = SeriesLabelPosition::UpperLeft;
     let pts: Vec<(f64, f64)> =
         rows.iter().map(|r| ((r.triangles as f64).max(1.0), metric(r).max(1e-3))).collect();
     if pts.is_empty() {
@@ -1165,20 +1172,41 @@ fn scaling_panel(
         let mut series: Vec<(f64, f64)> =
             rows.iter().zip(&pts).filter(|(r, _)| r.method == *m).map(|(_, p)| *p).collect();
         series.sort_by(|a, b| a.0.total_cmp(&b.0));
-        chart
-            .draw_series(LineSeries::new(series.clone(), c.stroke_width(2)))
-            .map_err(plot_error)?
-            .label(m.to_string())
-            .legend(move |(x, y)| PathElement::new(vec![(x, y), (x + 16, y)], c.stroke_width(2)));
+        chart.draw_series(LineSeries::new(series.clone(), c.stroke_width(2))).map_err(plot_error)?;
         chart.draw_series(series.iter().map(|p| Circle::new(*p, 3, c.filled()))).map_err(plot_error)?;
     }
-    chart
-        .configure_series_labels()
-        .position(LEGEND)
-        .label_font(("sans-serif", 12))
-        .background_style(WHITE.mix(0.9))
-        .border_style(BLACK)
-        .draw()
+    Ok(())
+}
+
+/// The width in pixels of the legend column right of each chart.
+const LEGEND_WIDTH: u32 = 150;
+
+/// How a legend entry shows its series: a point ([`plot`]) or a line ([`plot_scaling`]).
+#[derive(Clone, Copy)]
+enum LegendMark {
+    Point,
+    Line,
+}
+
+/// A legend in its own column `area` (right of a chart, so it hides none of the chart's data):
+/// one row per `(label, colour)`, top down from the chart's caption.
+fn draw_legend(
+    area: &plotters::drawing::DrawingArea<plotters::prelude::BitMapBackend<'_>, plotters::coord::Shift>,
+    entries: &[(String, plotters::style::RGBColor)],
+    mark: LegendMark,
+) -> Result<(), PlotError> {
+    use plotters::prelude::*;
+    let (x, row) = (6i32, 18i32);
+    for (i, (label, c)) in entries.iter().enumerate() {
+        let y = 44 + row * i as i32;
+        match mark {
+            // Flat (black) is a ring in the chart, and so here.
+            LegendMark::Point if *c == BLACK => area.draw(&Circle::new((x + 8, y), 5, c.stroke_width(2))),
+            LegendMark::Point => area.draw(&Circle::new((x + 8, y), 4, c.filled())),
+            LegendMark::Line => area.draw(&PathElement::new(vec![(x, y), (x + 16, y)], c.stroke_width(2))),
+        }
         .map_err(plot_error)?;
+        area.draw(&Text::new(label.clone(), (x + 22, y - 7), ("sans-serif", 12))).map_err(plot_error)?;
+    }
     Ok(())
 }
