@@ -4,7 +4,7 @@
 use super::conic::Projected;
 use super::detsign::{det_sign_on_domain, folds_between, DetSign};
 use super::domain::{clamp_to_triangle, edge_band, inside, near_domain, on_ray};
-use super::newton::newton_step;
+use super::newton::{all_finite, newton_step};
 use super::PatchHit;
 use crate::phong::patch::Patch;
 use crate::phong::real::{Real, V3};
@@ -131,6 +131,7 @@ fn proof_on_region<T: Real>(pr: &Projected<T>, proofs: Proofs) -> Option<Proof<T
 /// The answer for a proven root `(u, v, t)`, R's only one: a hit inside the domain and the interval,
 /// a proven miss outside, `None` (not proven) within the band where the analytic method would
 /// decide again in f64.
+#[inline(always)]
 fn decide<T: Real>(u: T, v: T, t: T, tmin: T, tmax: T) -> Option<Option<PatchHit<T>>> {
     if inside(u, v) {
         if !(t > tmin && t < tmax) {
@@ -236,11 +237,11 @@ fn flat_start<T: Real>(pr: &Projected<T>) -> Option<(T, T)> {
     let ([fa, fb, _, fd, fe, ff], [ga, gb, _, gd, ge, gf]) = (pr.f.k, pr.g.k);
     let (l00, l01, l10, l11) = (fa + fd, fb + fe, ga + gd, gb + ge);
     let det = l00 * l11 - l01 * l10;
-    if det == T::ZERO || !det.is_finite() {
-        return None;
-    }
     let idet = T::ONE / det;
-    Some(((l01 * gf - l11 * ff) * idet, (l10 * ff - l00 * gf) * idet))
+    let (u, v) = ((l01 * gf - l11 * ff) * idet, (l10 * ff - l00 * gf) * idet);
+    // A zero `det` makes `idet` infinite and the start NaN or infinite (`0 · ∞` is NaN): one
+    // test covers it with the rest.
+    all_finite([det, u, v, T::ZERO]).then_some((u, v))
 }
 
 /// Newton on `(F, G) = 0` in the plane of `(u, v)` from `(u, v)`: the last iterate and whether
