@@ -2,9 +2,9 @@
 //! certificate proves the ray meets the patch at most once near the triangle.
 
 use super::conic::Projected;
-use super::detsign::{det_sign_on_domain, DetSign};
+use super::detsign::{det_sign_on_domain, folds_between, DetSign};
 use super::domain::{clamp_to_triangle, edge_band, inside, near_domain, on_ray};
-use super::newton::newton_step;
+use super::newton::{all_finite, newton_step};
 use super::PatchHit;
 use crate::phong::patch::Patch;
 use crate::phong::real::{Real, V3};
@@ -107,10 +107,19 @@ impl<T: Real> Proof<T> {
     }
 }
 
-/// The first of `proofs` that holds on `R`.
+/// The first of `proofs` that holds on `R`. A fold is refused first, before either
+/// certificate: where `det J` clearly has opposite signs at the domain's corner `(0, 0)` and at
+/// the centroid ([`folds_between`]), neither can hold, and the caller goes to the analytic
+/// method for the price of one 2×2 determinant.
 #[inline(always)]
 fn proof_on_region<T: Real>(pr: &Projected<T>, proofs: Proofs) -> Option<Proof<T>> {
-    if let Some(anchor) = one_to_one_on_region(pr) {
+    let (j0, det0) = centroid_jacobian(pr);
+    // `det J(0, 0)`: J there is `[fd, fe, gd, ge]`, as in `domain_jacobians`.
+    let corner = pr.f.k[3] * pr.g.k[4] - pr.f.k[4] * pr.g.k[3];
+    if folds_between(pr, corner, det0) {
+        return None;
+    }
+    if let Some(anchor) = positive_definite_on_region(pr, j0, det0) {
         return Some(Proof::PositiveDefinite(anchor));
     }
     match proofs {
@@ -122,6 +131,7 @@ fn proof_on_region<T: Real>(pr: &Projected<T>, proofs: Proofs) -> Option<Proof<T
 /// The answer for a proven root `(u, v, t)`, R's only one: a hit inside the domain and the interval,
 /// a proven miss outside, `None` (not proven) within the band where the analytic method would
 /// decide again in f64.
+#[inline(always)]
 fn decide<T: Real>(u: T, v: T, t: T, tmin: T, tmax: T) -> Option<Option<PatchHit<T>>> {
     if inside(u, v) {
         if !(t > tmin && t < tmax) {
@@ -170,14 +180,26 @@ struct Anchor<T> {
     k: [T; 4],
 }
 
+/// The Jacobian `J0` at the centroid (`(1/3, 1/3)` in `T`) and its determinant.
+#[inline(always)]
+fn centroid_jacobian<T: Real>(pr: &Projected<T>) -> ([T; 4], T) {
+    let third = T::from_f64(1.0 / 3.0);
+    let j0 = jacobian(pr, third, third);
+    (j0, j0[0] * j0[3] - j0[1] * j0[2])
+}
+
 /// [`Anchor`] when the symmetric part of `J0⁻¹ J` is clearly positive definite at the corners of
 /// `R`: then the projection is one-to-one on `R`. `None` when it is not, or when `J0` is within
 /// rounding of singular (the ray grazes the patch: it proves nothing).
-#[inline(always)]
+#[cfg(test)]
 fn one_to_one_on_region<T: Real>(pr: &Projected<T>) -> Option<Anchor<T>> {
-    let third = T::from_f64(1.0 / 3.0);
-    let j0 = jacobian(pr, third, third);
-    let det0 = j0[0] * j0[3] - j0[1] * j0[2];
+    let (j0, det0) = centroid_jacobian(pr);
+    positive_definite_on_region(pr, j0, det0)
+}
+
+/// [`one_to_one_on_region`] from `J0` and `det J0` ([`centroid_jacobian`]).
+#[inline(always)]
+fn positive_definite_on_region<T: Real>(pr: &Projected<T>, j0: [T; 4], det0: T) -> Option<Anchor<T>> {
     let j0n = j0[0].abs().max(j0[1].abs()).max(j0[2].abs()).max(j0[3].abs());
     if !(det0.abs() > T::gamma(64).sqrt() * j0n * j0n) {
         return None;
@@ -215,11 +237,11 @@ fn flat_start<T: Real>(pr: &Projected<T>) -> Option<(T, T)> {
     let ([fa, fb, _, fd, fe, ff], [ga, gb, _, gd, ge, gf]) = (pr.f.k, pr.g.k);
     let (l00, l01, l10, l11) = (fa + fd, fb + fe, ga + gd, gb + ge);
     let det = l00 * l11 - l01 * l10;
-    if det == T::ZERO || !det.is_finite() {
-        return None;
-    }
     let idet = T::ONE / det;
-    Some(((l01 * gf - l11 * ff) * idet, (l10 * ff - l00 * gf) * idet))
+    let (u, v) = ((l01 * gf - l11 * ff) * idet, (l10 * ff - l00 * gf) * idet);
+    // A zero `det` makes `idet` infinite and the start NaN or infinite (`0 · ∞` is NaN): one
+    // test covers it with the rest.
+    all_finite([det, u, v, T::ZERO]).then_some((u, v))
 }
 
 /// Newton on `(F, G) = 0` in the plane of `(u, v)` from `(u, v)`: the last iterate and whether
@@ -251,7 +273,9 @@ fn newton_plane<T: Real>(pr: &Projected<T>, mut u: T, mut v: T) -> Option<(T, T,
 mod tests {
     use super::super::conic::project;
     use super::super::{intersect, intersect_traced, Method, TestOutcome};
-    use super::{det_sign_on_domain, domain_jacobians, one_to_one_on_region};
+    use super::{
+        centroid_jacobian, det_sign_on_domain, domain_jacobians, folds_between, one_to_one_on_region,
+    };
     use crate::phong::accuracy::{generate, Case, Category, SplitMix};
     use crate::phong::patch::Patch;
     use crate::phong::real::V3;
@@ -333,6 +357,31 @@ mod tests {
             let far = far.expect("the ray leaves the bulge inside the domain");
             assert!((far.u - r.u).abs() > 0.3, "roots at u = {} and {}", r.u, far.u);
         }
+    }
+
+    /// The fold test refuses only rays that neither certificate would settle: wherever `det J`
+    /// clearly changes sign between the corner `(0, 0)` and the centroid, both the
+    /// positive-definite and the det-sign certificates fail as computed, so refusing first
+    /// changes no answer. It refuses a good share of the rays both certificates refuse.
+    #[test]
+    fn the_fold_test_refuses_only_what_both_certificates_refuse() {
+        let mut rng = SplitMix(43);
+        let (mut refused_by_both, mut folds) = (0, 0);
+        for i in 0..40_000 {
+            let c = generate(&mut rng, [Category::RandomCurved, Category::StronglyCurved][i % 2]);
+            let (p, o, d) = f32_ray(&c, rng.range(-0.7, 0.7));
+            let Some(pr) = project(&p, (o - p.center) * p.inv_scale, d * p.inv_scale) else { continue };
+            let both_fail = one_to_one_on_region(&pr).is_none()
+                && det_sign_on_domain(&pr, domain_jacobians(&pr)).is_none();
+            let (_, det0) = centroid_jacobian(&pr);
+            let corner = pr.f.k[3] * pr.g.k[4] - pr.f.k[4] * pr.g.k[3];
+            if folds_between(&pr, corner, det0) {
+                assert!(both_fail, "case {i}: a certificate holds on a refused fold: {c:?}");
+                folds += 1;
+            }
+            refused_by_both += both_fail as usize;
+        }
+        assert!(folds * 4 > refused_by_both, "the fold test refused {folds} of {refused_by_both} rays");
     }
 
     /// [`det_sign_answers_equal_the_reference`] on one ray: whether the det-sign certificate

@@ -82,28 +82,51 @@ fn margin<T: Real>(k2: T, w: T) -> T {
     T::gamma(16) * T::from_f64(4.0) * k2 * (w * w)
 }
 
+/// `K²`, the square of the bound on the Jacobian's coefficients: `2 max(|F|, |G|)` over the
+/// conics' coefficients (see the module's comment).
+#[inline(always)]
+fn bound_squared<T: Real>(pr: &Projected<T>) -> T {
+    let k = pr.f.norm().max(pr.g.norm()) * T::from_f64(2.0);
+    k * k
+}
+
 /// [`DetSign`] when `det J`'s six Bernstein coefficients on the domain (`j`: `J` at its corners
 /// `(0, 0)`, `(1, 0)`, `(0, 1)`, whose largest `w` is 2) all have one sign, clear of their
 /// rounding margin; `None` when they do not (the patch may fold as seen along the ray), or when
 /// a coefficient is NaN.
 #[inline(always)]
 pub(super) fn det_sign_on_domain<T: Real>(pr: &Projected<T>, j: [[T; 4]; 3]) -> Option<DetSign<T>> {
-    // Compute the margin from the conics' largest coefficient.
-    let k = pr.f.norm().max(pr.g.norm()) * T::from_f64(2.0);
-    let (k2, w) = (k * k, T::from_f64(2.0));
+    // Compute the corners' coefficients first: one of the other sign refuses before the margin
+    // and the edges' coefficients are computed (the same answer: each must clear a positive
+    // margin with the first corner's sign).
+    let corners = [det2(&j[0]), det2(&j[1]), det2(&j[2])];
+    let sign = if corners[0] > T::ZERO { T::ONE } else { -T::ONE };
+    if !(corners[1] * sign > T::ZERO && corners[2] * sign > T::ZERO) {
+        return None;
+    }
+    // Compute the margin from the conics' largest coefficient, then the edges' coefficients
+    // (doubled): all six must clear it with the first corner's sign.
+    let (k2, w) = (bound_squared(pr), T::from_f64(2.0));
     let m = margin(k2, w);
-    // Compute the six coefficients (the edge ones doubled): all must clear the margin with the
-    // sign of the first corner's.
-    let c = [
-        det2(&j[0]),
-        det2(&j[1]),
-        det2(&j[2]),
-        mixed(&j[0], &j[1]),
-        mixed(&j[1], &j[2]),
-        mixed(&j[2], &j[0]),
-    ];
-    let sign = if c[0] > T::ZERO { T::ONE } else { -T::ONE };
+    let c =
+        [corners[0], corners[1], corners[2], mixed(&j[0], &j[1]), mixed(&j[1], &j[2]), mixed(&j[2], &j[0])];
     c.iter().all(|&x| x * sign > m).then_some(DetSign { corners: j, sign, k2, w })
+}
+
+/// Whether `a` and `b`, `det J` computed at two points of the domain (each entry of `J` with at
+/// most four roundings, as [`det_sign_on_domain`]'s coefficients and the Jacobian at the
+/// centroid are), clearly have opposite signs: each exceeds the rounding margin of a coefficient
+/// (the module's comment; `w <= 2` in the domain), so the exact `det J` has a zero between the
+/// two points. Then no certificate that proves `det J` one-signed on a region holding the
+/// domain can hold: neither the det-sign one (on the domain) nor the positive-definite one (on
+/// a larger region, where it makes `det J` the sign of `det J0`).
+#[inline(always)]
+pub(super) fn folds_between<T: Real>(pr: &Projected<T>, a: T, b: T) -> bool {
+    if !(a * b < T::ZERO) {
+        return false;
+    }
+    let m = margin(bound_squared(pr), T::from_f64(2.0));
+    a.abs() > m && b.abs() > m
 }
 
 impl<T: Real> DetSign<T> {

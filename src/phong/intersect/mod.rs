@@ -204,8 +204,7 @@ fn solve_local<T: Real>(
     method: Method,
 ) -> (Option<PatchHit<T>>, TestOutcome) {
     let (org, dir) = world;
-    let bad_interval = tmin.to_f64().is_nan() || tmax.to_f64().is_nan();
-    if p.degenerate || bad_interval || !(o.is_finite() && d.is_finite()) || d.max_abs() == T::ZERO {
+    if p.degenerate || !finite_ray(tmin, tmax, o, d) {
         return (None, TestOutcome::BadInput);
     }
     match method {
@@ -220,6 +219,17 @@ fn solve_local<T: Real>(
         }
         Method::Newton => (newton_local(p, o, d, tmin, tmax, domain_tolerance::<T>()), TestOutcome::Newton),
     }
+}
+
+/// Whether the interval is not NaN, the local ray `(o, d)` is finite and `d` is not zero. Each
+/// `x - x` is `+0` for a finite `x` and NaN for an infinite or NaN one, so their sum is `0`
+/// exactly when all six are finite (straight-line code: no test per component).
+#[inline(always)]
+#[allow(clippy::eq_op)] // `x - x` and `x == x` are the point: they tell NaN and infinity apart
+fn finite_ray<T: Real>(tmin: T, tmax: T, o: V3<T>, d: V3<T>) -> bool {
+    let z = ((o.x - o.x) + (o.y - o.y)) + ((o.z - o.z) + ((d.x - d.x) + (d.y - d.y) + (d.z - d.z)));
+    let zero_dir = d.x == T::ZERO && d.y == T::ZERO && d.z == T::ZERO;
+    tmin == tmin && tmax == tmax && z == T::ZERO && !zero_dir
 }
 
 /// [`Method::AnalyticPolished`], or a certified method when `certify` names its proofs, on the local ray

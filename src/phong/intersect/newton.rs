@@ -6,7 +6,8 @@ use super::PatchHit;
 use crate::phong::patch::Patch;
 use crate::phong::real::{Real, V3};
 
-/// One Newton step on `P(u,v) - o - t d = 0` (local frame). Returns `None` if singular.
+/// One Newton step on `P(u,v) - o - t d = 0` (local frame). Returns `None` if singular, or if
+/// the step or the new iterate is not finite.
 #[inline(always)]
 pub(super) fn newton_step<T: Real>(p: &Patch<T>, o: V3<T>, d: V3<T>, u: T, v: T, t: T) -> Option<(T, T, T)> {
     let (pu, pv) = p.partials_local(u, v);
@@ -14,15 +15,21 @@ pub(super) fn newton_step<T: Real>(p: &Patch<T>, o: V3<T>, d: V3<T>, u: T, v: T,
     // Solve [pu pv -d] [du dv dt]ᵀ = -r by Cramer's rule.
     let nd = -d;
     let det = pu.dot(pv.cross(nd));
-    if det == T::ZERO || !det.is_finite() {
-        return None;
-    }
     let inv = T::ONE / det;
     let du = -r.dot(pv.cross(nd)) * inv;
     let dv = -pu.dot(r.cross(nd)) * inv;
     let dt = -pu.dot(pv.cross(r)) * inv;
     let (nu, nv, nt) = (u + du, v + dv, t + dt);
-    (nu.is_finite() && nv.is_finite() && nt.is_finite()).then_some((nu, nv, nt))
+    // One test for all: `x - x` is `+0` for a finite `x`, NaN otherwise. A zero `det` makes
+    // `inv` infinite and so every step NaN or infinite (`0 · ∞` is NaN): it needs no test of its own.
+    all_finite([det, nu, nv, nt]).then_some((nu, nv, nt))
+}
+
+/// Whether all four are finite: the sum of their `x - x` is `0` exactly then, NaN otherwise.
+#[inline(always)]
+#[allow(clippy::eq_op)] // `x - x` is the point: it is NaN for an infinite or NaN `x`
+pub(super) fn all_finite<T: Real>(x: [T; 4]) -> bool {
+    ((x[0] - x[0]) + (x[1] - x[1])) + ((x[2] - x[2]) + (x[3] - x[3])) == T::ZERO
 }
 
 /// Newton–Raphson on `(u, v, t)` from the hit of the ray with the flat triangle's plane; a root
