@@ -49,7 +49,10 @@ struct LocalRay<T> {
     polish: bool,
 }
 
-/// [`analytic_local`] on the ray's two conics `pr` (from [`project`]).
+/// [`analytic_local`] on the ray's two conics `pr` (from [`project`]). Inlined, so that the
+/// lean solve is compiled into each version of the caller's multiversioned patch test (with
+/// AVX2's three-operand forms in the x86-64-v3 one); the full search is not.
+#[inline(always)]
 pub(super) fn analytic_projected<T: Real>(
     p: &Patch<T>,
     o: V3<T>,
@@ -71,11 +74,25 @@ pub(super) fn analytic_projected<T: Real>(
             return answer;
         }
     }
+    full_search(p, &ray, &cf, &cg)
+}
+
+/// The full search of [`analytic_projected`], for what the lean solve cannot decide: every
+/// degenerate member of the pencil, best-conditioned first, split into lines whose roots are
+/// offered until one member gives roots. Not inlined: it is the rare path.
+#[inline(never)]
+#[cold]
+fn full_search<T: Real>(
+    p: &Patch<T>,
+    ray: &LocalRay<T>,
+    cf: &Conic<T>,
+    cg: &Conic<T>,
+) -> (Option<PatchHit<T>>, Ambiguity) {
     // Compute the pencil's degenerate members, then offer the roots on their lines.
-    let members = degenerate_members(&cf, &cg);
+    let members = degenerate_members(cf, cg);
     let mut s = Search::new(members.near_multiple);
     for &x in &members.x[..members.n] {
-        if s.member(p, &ray, &cf, &cg, x) {
+        if s.member(p, ray, cf, cg, x) {
             break;
         }
     }
@@ -276,6 +293,7 @@ impl<T: Real> Search<T> {
 /// within rounding (a degenerate or near-flat pencil, no clear line pair, a near tangency, a
 /// spurious root, a polish that diverged): then the full search of [`analytic_projected`]
 /// decides, with its ambiguity flags.
+#[inline(always)]
 fn lean<T: Real>(
     p: &Patch<T>,
     ray: &LocalRay<T>,
@@ -326,6 +344,7 @@ fn lean<T: Real>(
 
 /// Polish the roots `cand` nearest first, and answer with the first one inside the domain and
 /// the interval; `None` if a polish diverged (the full search decides).
+#[inline(always)]
 fn nearest_polished<T: Real>(
     p: &Patch<T>,
     ray: &LocalRay<T>,
@@ -395,6 +414,7 @@ fn sym_trace_prod<T: Real>(a: &Sym<T>, b: &Sym<T>) -> T {
 /// in `x`, tells them apart. Two real conics meet in 4 real points (three real members, all
 /// line pairs), 2 (one real member, a line pair) or none (three, one a line pair): there is
 /// always a line pair to take, and any one carries every intersection point.
+#[inline(always)]
 fn line_pair_root<T: Real>(m: &Sym<T>, n: &Sym<T>, nm: T, nn: T) -> Option<(T, bool)> {
     let (am, an) = (sym_adj(m), sym_adj(n));
     // Compute det(x M + N) = x³ det M + x² tr(adj(M) N) + x tr(M adj(N)) + det N.

@@ -120,6 +120,7 @@ pub(super) fn split_degenerate<T: Real>(h: &[[T; 3]; 3]) -> Result<[[T; 3]; 2], 
 
 /// Intersect the line `l` with the conic `k`: up to 2 points `(u, v)`, and whether the answer
 /// rests on a discriminant within rounding of zero (near tangency).
+#[inline(always)]
 pub(super) fn line_conic<T: Real>(l: [T; 3], k: &Conic<T>) -> ([(T, T); 2], usize, bool) {
     let z = T::ZERO;
     let ll = l[0] * l[0] + l[1] * l[1];
