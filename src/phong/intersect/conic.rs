@@ -13,14 +13,17 @@ pub(super) struct Conic<T> {
 }
 
 impl<T: Real> Conic<T> {
+    #[inline(always)]
     pub(super) fn mat(&self) -> [[T; 3]; 3] {
         let h = T::from_f64(0.5);
         let [a, b, c, d, e, f] = self.k;
         [[a, c * h, d * h], [c * h, b, e * h], [d * h, e * h, f]]
     }
+    #[inline(always)]
     pub(super) fn norm(&self) -> T {
         self.k.iter().fold(T::ZERO, |m, x| m.max(x.abs()))
     }
+    #[inline(always)]
     pub(super) fn at(&self, u: T, v: T) -> T {
         let [a, b, c, d, e, f] = self.k;
         a * u * u + b * v * v + c * u * v + d * u + e * v + f
