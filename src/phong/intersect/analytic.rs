@@ -49,7 +49,10 @@ struct LocalRay<T> {
     polish: bool,
 }
 
-/// [`analytic_local`] on the ray's two conics `pr` (from [`project`]).
+/// [`analytic_local`] on the ray's two conics `pr` (from [`project`]). Inlined, so that the
+/// lean solve is compiled into each version of the caller's multiversioned patch test (with
+/// AVX2's three-operand forms in the x86-64-v3 one); the full search is not.
+#[inline(always)]
 pub(super) fn analytic_projected<T: Real>(
     p: &Patch<T>,
     o: V3<T>,
@@ -60,22 +63,37 @@ pub(super) fn analytic_projected<T: Real>(
     polish: bool,
 ) -> (Option<PatchHit<T>>, Ambiguity) {
     let (cf, cg) = (pr.f, pr.g);
-    if cf.norm() == T::ZERO || cg.norm() == T::ZERO {
+    let (nf, ng) = (cf.norm(), cg.norm());
+    if nf == T::ZERO || ng == T::ZERO {
         // The ray lies in the patch's plane (a flat patch seen edge-on): no isolated hit.
         return (None, Ambiguity::default());
     }
     let ray = LocalRay { o, d, tmin, tmax, polish };
     // The lean solve decides the clear cases; what rests on rounding goes the full way below.
     if polish {
-        if let Some(answer) = lean(p, &ray, &cf, &cg) {
+        if let Some(answer) = lean(p, &ray, (&cf, nf), (&cg, ng)) {
             return answer;
         }
     }
+    full_search(p, &ray, &cf, &cg)
+}
+
+/// The full search of [`analytic_projected`], for what the lean solve cannot decide: every
+/// degenerate member of the pencil, best-conditioned first, split into lines whose roots are
+/// offered until one member gives roots. Not inlined: it is the rare path.
+#[inline(never)]
+#[cold]
+fn full_search<T: Real>(
+    p: &Patch<T>,
+    ray: &LocalRay<T>,
+    cf: &Conic<T>,
+    cg: &Conic<T>,
+) -> (Option<PatchHit<T>>, Ambiguity) {
     // Compute the pencil's degenerate members, then offer the roots on their lines.
-    let members = degenerate_members(&cf, &cg);
+    let members = degenerate_members(cf, cg);
     let mut s = Search::new(members.near_multiple);
     for &x in &members.x[..members.n] {
-        if s.member(p, &ray, &cf, &cg, x) {
+        if s.member(p, ray, cf, cg, x) {
             break;
         }
     }
@@ -275,16 +293,17 @@ impl<T: Real> Search<T> {
 /// polish of the nearest root in the domain only. `None` where the answer would rest on a step
 /// within rounding (a degenerate or near-flat pencil, no clear line pair, a near tangency, a
 /// spurious root, a polish that diverged): then the full search of [`analytic_projected`]
-/// decides, with its ambiguity flags.
+/// decides, with its ambiguity flags. The conics come with their sizes ([`Conic::norm`]).
+#[inline(always)]
 fn lean<T: Real>(
     p: &Patch<T>,
     ray: &LocalRay<T>,
-    cf: &Conic<T>,
-    cg: &Conic<T>,
+    (cf, nf): (&Conic<T>, T),
+    (cg, ng): (&Conic<T>, T),
 ) -> Option<(Option<PatchHit<T>>, Ambiguity)> {
     // Compute one member: every intersection point of the two conics lies on it.
     let (m, n) = (sym_of(cf), sym_of(cg));
-    let (x, near_multiple) = line_pair_root(&m, &n, cf.norm(), cg.norm())?;
+    let (x, near_multiple) = line_pair_root(&m, &n, nf, ng)?;
     let (h, other) = if x.abs() <= T::ONE {
         (std::array::from_fn(|i| x * m[i] + n[i]), cf)
     } else {
@@ -297,7 +316,8 @@ fn lean<T: Real>(
     let (tol2, polish_band) = (s.size_tol * s.size_tol, edge_band::<T>() * T::from_f64(4.0));
     let (o, d) = (ray.o, ray.d);
     let inv_dd = T::ONE / d.dot(d);
-    let mut cand = [(T::ZERO, T::ZERO, T::ZERO); 4];
+    let mut cand =
+        [Candidate { u: T::ZERO, v: T::ZERO, t: T::ZERO, r: V3::new(T::ZERO, T::ZERO, T::ZERO) }; 4];
     let mut k = 0;
     for l in lines {
         let (pts, n, near_tangent) = line_conic(l, other);
@@ -316,7 +336,7 @@ fn lean<T: Real>(
             }
             // Clearly outside the domain: no polish can bring it in.
             if near_domain(u, v, polish_band) {
-                cand[k] = (u, v, t);
+                cand[k] = Candidate { u, v, t, r };
                 k += 1;
             }
         }
@@ -324,22 +344,33 @@ fn lean<T: Real>(
     nearest_polished(p, ray, &mut cand[..k], near_multiple)
 }
 
+/// A root offered by the lean solve: its parameters, its ray parameter and its residual
+/// `P(u, v) - o - t d` (local frame).
+#[derive(Clone, Copy)]
+struct Candidate<T> {
+    u: T,
+    v: T,
+    t: T,
+    r: V3<T>,
+}
+
 /// Polish the roots `cand` nearest first, and answer with the first one inside the domain and
 /// the interval; `None` if a polish diverged (the full search decides).
+#[inline(always)]
 fn nearest_polished<T: Real>(
     p: &Patch<T>,
     ray: &LocalRay<T>,
-    cand: &mut [(T, T, T)],
+    cand: &mut [Candidate<T>],
     near_multiple: bool,
 ) -> Option<(Option<PatchHit<T>>, Ambiguity)> {
     let (o, d) = (ray.o, ray.d);
     let mut ambiguous = near_multiple;
     for i in 0..cand.len() {
         // The nearest of those left (there are at most 4).
-        let j = (i + 1..cand.len()).fold(i, |j, k| if cand[k].2 < cand[j].2 { k } else { j });
+        let j = (i + 1..cand.len()).fold(i, |j, k| if cand[k].t < cand[j].t { k } else { j });
         cand.swap(i, j);
-        let (u, v, t) = cand[i];
-        let (pu, pv, pt) = newton_step(p, o, d, u, v, t).unwrap_or((u, v, t));
+        let Candidate { u, v, t, r } = cand[i];
+        let (pu, pv, pt) = step_from_residual(p, d, (u, v, t), r).unwrap_or((u, v, t));
         if !on_ray(p, o, d, pu, pv, pt) || (!inside(pu, pv) && inside(u, v)) {
             return None; // Newton diverged or jumped out: a near tangency
         }
@@ -351,6 +382,28 @@ fn nearest_polished<T: Real>(
         }
     }
     Some((None, Ambiguity { miss: ambiguous, hit: false }))
+}
+
+/// One Newton step on `P(u,v) - o - t d = 0` from `root`, whose residual `r` is known: as
+/// [`newton_step`] computes it (the same operations in the same order, so the same bits),
+/// without evaluating the patch again.
+#[inline(always)]
+fn step_from_residual<T: Real>(p: &Patch<T>, d: V3<T>, root: (T, T, T), r: V3<T>) -> Option<(T, T, T)> {
+    let (u, v, t) = root;
+    let (pu, pv) = p.partials_local(u, v);
+    // Solve [pu pv -d] [du dv dt]ᵀ = -r by Cramer's rule.
+    let nd = -d;
+    let w = pv.cross(nd);
+    let det = pu.dot(w);
+    if det == T::ZERO || !det.is_finite() {
+        return None;
+    }
+    let inv = T::ONE / det;
+    let du = -r.dot(w) * inv;
+    let dv = -pu.dot(r.cross(nd)) * inv;
+    let dt = -pu.dot(pv.cross(r)) * inv;
+    let (nu, nv, nt) = (u + du, v + dv, t + dt);
+    (nu.is_finite() && nv.is_finite() && nt.is_finite()).then_some((nu, nv, nt))
 }
 
 /// A symmetric 3×3 matrix by its entries `[s00, s11, s22, s01, s02, s12]`.
@@ -395,6 +448,7 @@ fn sym_trace_prod<T: Real>(a: &Sym<T>, b: &Sym<T>) -> T {
 /// in `x`, tells them apart. Two real conics meet in 4 real points (three real members, all
 /// line pairs), 2 (one real member, a line pair) or none (three, one a line pair): there is
 /// always a line pair to take, and any one carries every intersection point.
+#[inline(always)]
 fn line_pair_root<T: Real>(m: &Sym<T>, n: &Sym<T>, nm: T, nn: T) -> Option<(T, bool)> {
     let (am, an) = (sym_adj(m), sym_adj(n));
     // Compute det(x M + N) = x³ det M + x² tr(adj(M) N) + x tr(M adj(N)) + det N.
@@ -419,16 +473,7 @@ fn line_pair_root<T: Real>(m: &Sym<T>, n: &Sym<T>, nm: T, nn: T) -> Option<(T, b
     let t0 = an[0] + an[1] + an[2];
     let mixed = |i: usize, j: usize, ij: usize| m[i] * n[j] + n[i] * m[j] - (m[ij] * n[ij] + m[ij] * n[ij]);
     let t1 = mixed(0, 1, 3) + mixed(0, 2, 4) + mixed(1, 2, 5);
-    let score = |x: T| {
-        if x.abs() <= T::ONE {
-            let s = x.abs() * nm + nn;
-            ((x * t2 + t1) * x + t0) / (s * s)
-        } else {
-            let ix = T::ONE / x;
-            let s = nm + ix.abs() * nn;
-            ((t0 * ix + t1) * ix + t2) / (s * s)
-        }
-    };
+    let score = |x: T| line_pair_score(x, (t2, t1, t0), nm, nn);
     let (mut best, mut best_score) = (roots[0], score(roots[0]));
     for &x in &roots[1..k] {
         let sx = score(x);
@@ -451,6 +496,20 @@ fn line_pair_root<T: Real>(m: &Sym<T>, n: &Sym<T>, nm: T, nn: T) -> Option<(T, b
         }
     }
     Some((best, near_multiple))
+}
+
+/// `tr adj(x M + N) = x² t2 + x t1 + t0` relative to the member's size (`nm`, `nn`: the sizes
+/// of `M` and `N`): clearly negative for a real line pair, positive for a point-like one.
+#[inline(always)]
+fn line_pair_score<T: Real>(x: T, (t2, t1, t0): (T, T, T), nm: T, nn: T) -> T {
+    if x.abs() <= T::ONE {
+        let s = x.abs() * nm + nn;
+        ((x * t2 + t1) * x + t0) / (s * s)
+    } else {
+        let ix = T::ONE / x;
+        let s = nm + ix.abs() * nn;
+        ((t0 * ix + t1) * ix + t2) / (s * s)
+    }
 }
 
 /// Split a degenerate conic `h` known to be a pair of real lines well apart (the member
@@ -488,4 +547,32 @@ fn split_line_pair<T: Real>(h: &Sym<T>) -> Option<[[T; 3]; 2]> {
         return None;
     }
     Some([c[bi], [c[0][bj], c[1][bj], c[2][bj]]])
+}
+
+#[cfg(test)]
+mod tests {
+    use super::*;
+    use crate::phong::accuracy::{generate, Category, SplitMix};
+
+    /// The lean solve's polish step, from the residual it already has, gives the bits of
+    /// [`newton_step`] (points in and around the domain, on rays of every accuracy category).
+    #[test]
+    fn step_from_residual_gives_newton_steps_bits() {
+        let mut rng = SplitMix(18);
+        let bits = |(u, v, t): (f32, f32, f32)| (u.to_bits(), v.to_bits(), t.to_bits());
+        let mut steps = 0;
+        for i in 0..20_000 {
+            let c = generate(&mut rng, Category::ALL[i % Category::ALL.len()]);
+            let p: Patch<f32> = Patch::new(c.p, c.n, c.alpha);
+            let o = (V3::from(c.org).cast::<f32>() - p.center) * p.inv_scale;
+            let d = V3::from(c.dir).cast::<f32>() * p.inv_scale;
+            let (u, v) = (rng.range(-0.2, 1.2) as f32, rng.range(-0.2, 1.2) as f32);
+            let q = p.eval_local(u, v) - o;
+            let t = q.dot(d) / d.dot(d);
+            let lean = step_from_residual(&p, d, (u, v, t), q - d * t);
+            assert_eq!(lean.map(bits), newton_step(&p, o, d, u, v, t).map(bits), "case {i}: {c:?}");
+            steps += lean.is_some() as usize;
+        }
+        assert!(steps > 15_000, "only {steps} steps taken");
+    }
 }

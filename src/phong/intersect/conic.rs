@@ -13,14 +13,17 @@ pub(super) struct Conic<T> {
 }
 
 impl<T: Real> Conic<T> {
+    #[inline(always)]
     pub(super) fn mat(&self) -> [[T; 3]; 3] {
         let h = T::from_f64(0.5);
         let [a, b, c, d, e, f] = self.k;
         [[a, c * h, d * h], [c * h, b, e * h], [d * h, e * h, f]]
     }
+    #[inline(always)]
     pub(super) fn norm(&self) -> T {
         self.k.iter().fold(T::ZERO, |m, x| m.max(x.abs()))
     }
+    #[inline(always)]
     pub(super) fn at(&self, u: T, v: T) -> T {
         let [a, b, c, d, e, f] = self.k;
         a * u * u + b * v * v + c * u * v + d * u + e * v + f
@@ -120,6 +123,7 @@ pub(super) fn split_degenerate<T: Real>(h: &[[T; 3]; 3]) -> Result<[[T; 3]; 2], 
 
 /// Intersect the line `l` with the conic `k`: up to 2 points `(u, v)`, and whether the answer
 /// rests on a discriminant within rounding of zero (near tangency).
+#[inline(always)]
 pub(super) fn line_conic<T: Real>(l: [T; 3], k: &Conic<T>) -> ([(T, T); 2], usize, bool) {
     let z = T::ZERO;
     let ll = l[0] * l[0] + l[1] * l[1];

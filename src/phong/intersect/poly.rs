@@ -116,6 +116,7 @@ fn cbrt_upper(y: f64) -> f64 {
 /// on the far side of the inflection point converges to it monotonically, and the quotient
 /// quadratic gives the other two. The Newton root comes first. `None` if Newton did not settle
 /// within its step cap (then the caller takes [`solve_cubic_flagged`]).
+#[inline(always)]
 pub(super) fn monic_cubic_roots<T: Real>(a: T, b: T, c: T) -> Option<([T; 3], usize)> {
     let z = T::ZERO;
     let three = T::from_f64(3.0);
