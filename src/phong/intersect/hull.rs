@@ -148,15 +148,16 @@ pub(super) fn hits_hull_v3<T: Real>(p: &Patch<T>, org: V3<T>, dir: V3<T>, tmin: 
 fn hull_f32_v3(p: &Patch<f32>, org: V3<f32>, dir: V3<f32>, tmin: f32, tmax: f32) -> bool {
     use std::arch::x86_64::*;
     let (sign, inf, big) = (_mm_set1_ps(-0.0), _mm_set1_ps(f32::INFINITY), _mm_set1_ps(f32::MAX));
-    // Compute the local ray, as `to_local` (lane 3 is not used).
-    let (c, s) = (_mm_setr_ps(p.center.x, p.center.y, p.center.z, 0.0), _mm_set1_ps(p.inv_scale));
+    // Compute the local ray, as `to_local`. Lane 3 is not used (of the ray, the centre and the
+    // slabs), and holds what lets the compiler load 4 floats at once (the next field).
+    let (c, s) = (_mm_setr_ps(p.center.x, p.center.y, p.center.z, p.scale), _mm_set1_ps(p.inv_scale));
     let o = _mm_mul_ps(_mm_sub_ps(_mm_setr_ps(org.x, org.y, org.z, 0.0), c), s);
     let d = _mm_mul_ps(_mm_setr_ps(dir.x, dir.y, dir.z, 0.0), s);
-    // The slabs, lanes 0-2.
+    // The slabs, lanes 0-2 (lane 3 is overwritten below).
     let widen = _mm_set1_ps(1.0 + <f32 as Real>::gamma(3) + <f32 as Real>::gamma(3));
     let inv = _mm_div_ps(_mm_set1_ps(1.0), d);
-    let a = _mm_mul_ps(_mm_sub_ps(_mm_setr_ps(p.lo.x, p.lo.y, p.lo.z, 0.0), o), inv);
-    let b = _mm_mul_ps(_mm_sub_ps(_mm_setr_ps(p.hi.x, p.hi.y, p.hi.z, 0.0), o), inv);
+    let a = _mm_mul_ps(_mm_sub_ps(_mm_setr_ps(p.lo.x, p.lo.y, p.lo.z, p.hi.x), o), inv);
+    let b = _mm_mul_ps(_mm_sub_ps(_mm_setr_ps(p.hi.x, p.hi.y, p.hi.z, p.prism_n[0].x), o), inv);
     let (near_s, far_s) = (_mm_min_ps(b, a), _mm_mul_ps(_mm_max_ps(a, b), widen));
     // Prism planes 1-4: the normals' x, y and z as lanes (lanes 0 and 3 of rows of 4 floats).
     let n = &p.prism_n;
