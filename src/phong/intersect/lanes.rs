@@ -1,14 +1,14 @@
 //! Eight lanes at once: the certified method of [`Method::Certified`](super::Method::Certified)
 //! for up to [`LANES`] rays against one f32 patch, with every step (the local frame, the hull and
-//! prism test, the projection, the certificate, Newton in the plane and the Newton step in
-//! space) run on all lanes together, as plain loops over fixed-size arrays that the compiler
-//! vectorises: AVX2 (one register of 8 lanes) or SSE 4.1 (two of 4), chosen at run time, or
-//! the baseline target's own vectors.
+//! prism test, the projection, the positive-definite certificate and where it fails the
+//! det-sign one, Newton in the plane and the Newton step in space) run on all lanes together, as
+//! plain loops over fixed-size arrays that the compiler vectorises: AVX2 (one register of 8
+//! lanes) or SSE 4.1 (two of 4), chosen at run time, or the baseline target's own vectors.
 //!
 //! Each lane computes exactly what the scalar path computes, in the same order: no fused
 //! operations (Rust never contracts `a * b + c`), the same `min`/`max` (by comparison, as
 //! [`Real::max`]), the same constants, so a lane it decides has bit for bit the scalar path's
-//! answer. What it does not decide (the certificate fails, Newton does not converge, the root
+//! answer. What it does not decide (both certificates fail, Newton does not converge, the root
 //! lies in the band where the scalar path asks f64, a certified miss on a sliver seen from afar)
 //! it leaves [`LaneDecision::Unsure`], for the caller's scalar
 //! [`intersect_in_hull_traced`](super::intersect_in_hull_traced), which also has the hull passed.
@@ -543,16 +543,26 @@ fn jacobian_lanes(pr: &ProjLanes, u: F, v: F) -> [F; 4] {
     ]
 }
 
-/// `certificate_holds` at the Jacobian `j`, for the anchor `(j0, 1 / det J0)`.
+/// `Anchor`: `sign(det J0) adj(J0)`, row-major, per lane (the scalar path's `J0⁻¹` up to a
+/// positive factor, computed once per test).
 #[inline(always)]
-fn certificate_lanes(j0: &[F; 4], inv: F, j: [F; 4]) -> M {
-    let m00 = (j0[3] * j[0] - j0[1] * j[2]) * inv;
-    let m01 = (j0[3] * j[1] - j0[1] * j[3]) * inv;
-    let m10 = (j0[0] * j[2] - j0[2] * j[0]) * inv;
-    let m11 = (j0[0] * j[3] - j0[2] * j[1]) * inv;
+fn anchor_lanes(j0: &[F; 4], det0: F) -> [F; 4] {
+    let one = F::splat(1.0);
+    let s = select(det0.gt(F::splat(0.0)), one, -one);
+    [j0[3] * s, -j0[1] * s, -j0[2] * s, j0[0] * s]
+}
+
+/// `certificate_holds` at the Jacobian `j`, for the anchor `k` ([`anchor_lanes`]).
+#[inline(always)]
+fn certificate_lanes(k: &[F; 4], j: [F; 4]) -> M {
+    let m00 = k[0] * j[0] + k[1] * j[2];
+    let m01 = k[0] * j[1] + k[1] * j[3];
+    let m10 = k[2] * j[0] + k[3] * j[2];
+    let m11 = k[2] * j[1] + k[3] * j[3];
     let h = (m01 + m10) * F::splat(0.5);
     let zero = F::splat(0.0);
-    m00.gt(zero) & m11.gt(zero) & (m00 * m11 - h * h).gt(F::splat(0.01) * m00 * m11)
+    let margin = F::splat(0.01f64 as f32) * m00 * m11;
+    m00.gt(zero) & m11.gt(zero) & (m00 * m11 - h * h).gt(margin)
 }
 
 /// The corners' coordinates of the certificate's region (as `region`).
@@ -560,26 +570,123 @@ fn region() -> (f32, f32) {
     ((-0.25f64 / 3.0) as f32, (3.5f64 / 3.0) as f32)
 }
 
-/// `certified_newton` up to `decide`: the certificate on the region, the flat start, Newton in
-/// the plane, the point's `t`, the Newton step in space and the checks of the root. Lanes that
-/// fail a check are handed to the scalar path.
+/// `det2`: `det A` for a 2×2 matrix, row-major.
 #[inline(always)]
-fn certified_root(p: &Patch<f32>, o: V, d: V, pr: &ProjLanes, lanes: &mut Lanes) -> (F, F, F) {
+fn det2_lanes(a: &[F; 4]) -> F {
+    a[0] * a[3] - a[1] * a[2]
+}
+
+/// `mixed`: `m(A, B) = a00 b11 + b00 a11 - a01 b10 - b01 a10`.
+#[inline(always)]
+fn mixed_lanes(a: &[F; 4], b: &[F; 4]) -> F {
+    (a[0] * b[3] + b[0] * a[3]) - (a[1] * b[2] + b[1] * a[2])
+}
+
+/// `DetSign`, the det-sign certificate on the domain, per lane: the Jacobian at the domain's
+/// corners, the sign of `det J` there and `K²`.
+struct DetSignLanes {
+    corners: [[F; 4]; 3],
+    sign: F,
+    k2: F,
+}
+
+/// `det_sign_on_domain` at `domain_jacobians` on every lane: the certificate, and the lanes
+/// where it holds (`det J`'s six Bernstein coefficients of one sign, clear of their margin).
+#[inline(always)]
+fn det_sign_lanes(pr: &ProjLanes) -> (DetSignLanes, M) {
+    let ([fa, fb, fc, fd, fe, _], [ga, gb, gc, gd, ge, _]) = (pr.f, pr.g);
+    let (zero, one, two) = (F::splat(0.0), F::splat(1.0), F::splat(2.0));
+    // Compute the margin from the conics' largest coefficient (`Conic::norm`), at w = 2.
+    let norm = |c: &[F; 6]| c.iter().fold(zero, |m, x| m.max(x.abs()));
+    let k = norm(&pr.f).max(norm(&pr.g)) * two;
+    let k2 = k * k;
+    let m = F::splat(<f32 as Real>::gamma(16) * 4.0) * k2 * (two * two);
+    // Compute the Jacobian at the domain's corners (`domain_jacobians`) and the six coefficients.
+    let j = [
+        [fd, fe, gd, ge],
+        [two * fa + fd, fc + fe, two * ga + gd, gc + ge],
+        [fc + fd, two * fb + fe, gc + gd, two * gb + ge],
+    ];
+    let c = [
+        det2_lanes(&j[0]),
+        det2_lanes(&j[1]),
+        det2_lanes(&j[2]),
+        mixed_lanes(&j[0], &j[1]),
+        mixed_lanes(&j[1], &j[2]),
+        mixed_lanes(&j[2], &j[0]),
+    ];
+    let sign = select(c[0].gt(zero), one, -one);
+    let holds = c.iter().fold(!M::none(), |h, &x| h & (x * sign).gt(m));
+    (DetSignLanes { corners: j, sign, k2 }, holds)
+}
+
+impl DetSignLanes {
+    /// `DetSign::holds_to`: the certificate extends to the hull of the domain and the root
+    /// `(u, v)`, where the Jacobian is `jr`.
+    #[inline(always)]
+    fn holds_to(&self, jr: [F; 4], u: F, v: F) -> M {
+        let w = F::splat(2.0).max(F::splat(1.0) + u.abs() + v.abs());
+        let m = F::splat(<f32 as Real>::gamma(64) * 24.0) * self.k2 * (w * w);
+        let c = [
+            det2_lanes(&jr),
+            mixed_lanes(&jr, &self.corners[0]),
+            mixed_lanes(&jr, &self.corners[1]),
+            mixed_lanes(&jr, &self.corners[2]),
+        ];
+        c.iter().fold(!M::none(), |h, &x| h & (x * self.sign).gt(m))
+    }
+}
+
+/// The proofs that the projection is one-to-one, per lane, as `proof_on_region` picks them:
+/// the positive-definite certificate on `R` where it holds, the det-sign certificate on the
+/// domain where it does not.
+struct ProofLanes {
+    /// The lanes proven by the positive-definite certificate (the others live ones by det-sign).
+    pd: M,
+    /// The positive-definite certificate's anchor.
+    anchor: [F; 4],
+    /// The det-sign certificate (meaningful on the live lanes outside `pd`).
+    ds: DetSignLanes,
+}
+
+/// `proof_on_region` with `Proofs::WithDetSign` on the live lanes; lanes that neither
+/// certificate proves are handed to the scalar path.
+#[inline(always)]
+fn proof_lanes(pr: &ProjLanes, lanes: &mut Lanes) -> ProofLanes {
     // Compute the anchor and the certificate at the region's corners (`one_to_one_on_region`).
     let third = F::splat((1.0f64 / 3.0) as f32);
     let j0 = jacobian_lanes(pr, third, third);
     let det0 = j0[0] * j0[3] - j0[1] * j0[2];
     let j0n = j0.iter().fold(F::splat(0.0), |m, x| m.max(x.abs()));
     let g64 = <f32 as Real>::gamma(64);
-    lanes.give_up(!det0.abs().gt(F::splat(g64.sqrt()) * j0n * j0n));
-    let inv = F::splat(1.0) / det0;
+    let mut pd = det0.abs().gt(F::splat(g64.sqrt()) * j0n * j0n);
+    let anchor = anchor_lanes(&j0, det0);
     let (lo, hi) = region();
     let (lo, hi) = (F::splat(lo), F::splat(hi));
     for (cu, cv) in [(lo, lo), (hi, lo), (lo, hi)] {
-        lanes.give_up(!certificate_lanes(&j0, inv, jacobian_lanes(pr, cu, cv)));
+        pd = pd & certificate_lanes(&anchor, jacobian_lanes(pr, cu, cv));
     }
+    let pd = lanes.live & pd;
+    // Compute the det-sign certificate where the first fails.
+    let rest = lanes.live & !pd;
+    let (ds, holds) = if rest.any() {
+        det_sign_lanes(pr)
+    } else {
+        let z = F::splat(0.0);
+        (DetSignLanes { corners: [[z; 4]; 3], sign: z, k2: z }, M::none())
+    };
+    lanes.give_up(rest & !holds);
+    ProofLanes { pd, anchor, ds }
+}
+
+/// `certified_newton` up to `decide`: the certificates, the flat start, Newton in
+/// the plane, the point's `t`, the Newton step in space and the checks of the root. Lanes that
+/// fail a check are handed to the scalar path.
+#[inline(always)]
+fn certified_root(p: &Patch<f32>, o: V, d: V, pr: &ProjLanes, lanes: &mut Lanes) -> (F, F, F) {
+    let zero = F::splat(0.0);
+    let proof = proof_lanes(pr, lanes);
     if !lanes.live.any() {
-        let zero = F::splat(0.0);
         return (zero, zero, zero);
     }
     let (u, v) = flat_start_lanes(pr, lanes);
@@ -592,12 +699,23 @@ fn certified_root(p: &Patch<f32>, o: V, d: V, pr: &ProjLanes, lanes: &mut Lanes)
     let (su, sv, st, ok) = newton_step_lanes(&pl, o, d, u, v, t);
     lanes.give_up(step & !ok);
     let (u, v, t) = (select(step, su, u), select(step, sv, v), select(step, st, t));
-    // The root must be on the ray, and R's only root (inside R, or the certificate at it).
+    // The root must be on the ray, and the proof's region's only root: inside the region (`R`
+    // for the positive-definite certificate, the domain for det-sign), or the certificate
+    // extends to it.
     let slack = F::splat(0.005);
     let one = F::splat(1.0);
+    let lo = select(proof.pd, F::splat(region().0), zero);
     let in_r = u.ge(lo + slack) & v.ge(lo + slack) & (u + v).le(one - lo - slack);
-    let at_root = certificate_lanes(&j0, inv, jacobian_lanes(pr, u, v));
-    lanes.give_up(!on_ray_lanes(&pl, o, d, u, v, t) | !(in_r | at_root));
+    let beyond = lanes.live & !in_r;
+    let extends = if beyond.any() {
+        let jr = jacobian_lanes(pr, u, v);
+        let by_pd = proof.pd & certificate_lanes(&proof.anchor, jr);
+        let by_ds = !proof.pd & proof.ds.holds_to(jr, u, v);
+        by_pd | by_ds
+    } else {
+        M::none()
+    };
+    lanes.give_up(!on_ray_lanes(&pl, o, d, u, v, t) | !(in_r | extends));
     (u, v, t)
 }
 
