@@ -22,7 +22,6 @@ use std::ops::{Add, BitAnd, BitOr, Div, Mul, Neg, Not, Sub};
 use multiversion::multiversion;
 
 use super::domain::{domain_tolerance, edge_band};
-use super::retry::sliver_from_afar;
 use super::PatchHit;
 use crate::phong::patch::Patch;
 use crate::phong::real::{Real, V3};
@@ -283,6 +282,11 @@ impl M {
     fn lane(self, i: usize) -> bool {
         self.0[i] != 0
     }
+    /// Bit `i` set where lane `i` is.
+    #[inline(always)]
+    fn bits(self) -> u32 {
+        (0..LANES).fold(0, |b, i| b | (self.0[i] & 1) << i)
+    }
 }
 
 impl BitAnd for M {
@@ -470,20 +474,44 @@ fn solve_lanes(p: &Patch<f32>, hull: &HullLanes, rays: &LaneRays) -> LaneAnswers
     let inside = near(u, v, domain_tolerance::<f32>());
     let hit = lanes.live & inside & t.gt(tmin) & t.lt(tmax);
     lanes.give_up(!inside & near(u, v, edge_band::<f32>()));
+    let miss = lanes.live & !hit;
+    if miss.any() {
+        lanes.give_up(miss & sliver_lanes(p, o));
+    }
     let (cu, cv) = clamp_lanes(u, v);
+    // The decisions from the masks' bits (a loop over the masks themselves would pull every
+    // stage above out of the vector registers, lane by lane).
+    let (unsure, hit) = (lanes.unsure.bits(), hit.bits());
     for i in 0..LANES {
-        out.decision[i] = if lanes.unsure.lane(i) {
+        out.decision[i] = if unsure >> i & 1 != 0 {
             LaneDecision::Unsure
-        } else if hit.lane(i) {
+        } else if hit >> i & 1 != 0 {
             LaneDecision::Hit
-        } else if lanes.live.lane(i) && sliver_from_afar(p, V3::new(o.x.0[i], o.y.0[i], o.z.0[i])) {
-            LaneDecision::Unsure
         } else {
             LaneDecision::Miss
         };
     }
     (out.t, out.u, out.v) = (t.0, cu.0, cv.0);
     out
+}
+
+/// `retry`'s `inverse_height` (a copy: it is private there), the same arithmetic: the
+/// reciprocal of the flat triangle's smallest height, `longest edge / |e1 × e2|`.
+#[inline(always)]
+fn inverse_height<T: Real>(p: &Patch<T>) -> T {
+    let (e1, e2) = (p.a + p.d, p.b + p.e);
+    let e3 = e2 - e1;
+    let longest = e1.dot(e1).max(e2.dot(e2)).max(e3.dot(e3)).sqrt();
+    longest / e1.cross(e2).length()
+}
+
+/// `retry`'s `sliver_from_afar` on every lane (local origins `o`; in f32 it always applies),
+/// with the patch's [`inverse_height`] computed once.
+#[inline(always)]
+fn sliver_lanes(p: &Patch<f32>, o: V) -> M {
+    let ih = F::splat(inverse_height(p));
+    let err = F::splat(<f32 as Real>::UNIT_ROUNDOFF) * (F::splat(1.0) + o.max_abs()) * ih;
+    !(err * F::splat(4.0)).le(F::splat(edge_band::<f32>()))
 }
 
 /// `hits_hull`'s first stage on every lane: `(tmin, tmax)` clipped against the bounds.
