@@ -218,6 +218,7 @@ impl F {
     /// Neither infinite nor NaN: `x - x` is `+0` exactly then (NaN otherwise). The same
     /// answer as `|x| < inf`, which LLVM turns into a class test it does lane by lane.
     #[inline(always)]
+    #[allow(clippy::eq_op)] // `x - x` is the point: it is NaN for an infinite or NaN `x`
     fn finite(self) -> M {
         (self - self).eq(F::splat(0.0))
     }
