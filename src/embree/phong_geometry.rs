@@ -52,23 +52,14 @@ impl UserPrimitives for PhongMesh {
     }
 
     /// The packet's lanes in blocks of [`LANES`], each block tested together
-    /// ([`PhongMesh::intersect_lanes`]); a packet of rays that know their origin (shadow rays)
-    /// lane by lane: there the lane kernel measured more instructions per ray than the scalar
-    /// path (sphere-120 +7%, the head -0.6%; scripts/instructions.sh), its lanes mostly turned
-    /// away by the hull or settled by the origin skip.
+    /// ([`PhongMesh::intersect_lanes`], which settles a lane's origin patch without a solve where
+    /// it can), shadow rays as camera rays. Shadow packets went lane by lane while the lane
+    /// kernel cost them more; since its hull stage is a function of its own it costs them less
+    /// (sphere-120 1,787 -> 1,739 instructions per shadow ray, the head 4,770 -> 4,091;
+    /// scripts/instructions.sh).
     #[allow(clippy::needless_range_loop)] // lane loops index several arrays by the lane
     fn intersect_packet(&self, item: u32, rays: &PacketRays, hits: &mut [Option<PrimHit>; MAX_PACKET]) {
         let n = rays.n.min(MAX_PACKET);
-        if (0..n).any(|i| rays.active[i] && rays.origin[i].is_some()) {
-            for i in 0..n {
-                if rays.active[i] {
-                    let (org, dir, tnear, tfar) = rays.ray(i);
-                    hits[i] =
-                        self.intersect_primitive_from(item, rays.origin[i], org, dir, tnear, tfar, |_| {});
-                }
-            }
-            return;
-        }
         // Blocks of LANES from lanes 0 and 8: lanes past the packet's width are inactive zeros
         // in `rays` (their answers are dropped).
         for start in (0..n).step_by(LANES) {

@@ -1,14 +1,14 @@
 //! Eight lanes at once: the certified method of [`Method::Certified`](super::Method::Certified)
 //! for up to [`LANES`] rays against one f32 patch, with every step (the local frame, the hull and
-//! prism test, the projection, the certificate, Newton in the plane and the Newton step in
-//! space) run on all lanes together, as plain loops over fixed-size arrays that the compiler
-//! vectorises: AVX2 (one register of 8 lanes) or SSE 4.1 (two of 4), chosen at run time, or
-//! the baseline target's own vectors.
+//! prism test, the projection, the positive-definite certificate and where it fails the
+//! det-sign one, Newton in the plane and the Newton step in space) run on all lanes together, as
+//! plain loops over fixed-size arrays that the compiler vectorises: AVX2 (one register of 8
+//! lanes) or SSE 4.1 (two of 4), chosen at run time, or the baseline target's own vectors.
 //!
 //! Each lane computes exactly what the scalar path computes, in the same order: no fused
 //! operations (Rust never contracts `a * b + c`), the same `min`/`max` (by comparison, as
 //! [`Real::max`]), the same constants, so a lane it decides has bit for bit the scalar path's
-//! answer. What it does not decide (the certificate fails, Newton does not converge, the root
+//! answer. What it does not decide (both certificates fail, Newton does not converge, the root
 //! lies in the band where the scalar path asks f64, a certified miss on a sliver seen from afar)
 //! it leaves [`LaneDecision::Unsure`], for the caller's scalar
 //! [`intersect_in_hull_traced`](super::intersect_in_hull_traced), which also has the hull passed.
@@ -22,7 +22,6 @@ use std::ops::{Add, BitAnd, BitOr, Div, Mul, Neg, Not, Sub};
 use multiversion::multiversion;
 
 use super::domain::{domain_tolerance, edge_band};
-use super::retry::sliver_from_afar;
 use super::PatchHit;
 use crate::phong::patch::Patch;
 use crate::phong::real::{Real, V3};
@@ -79,18 +78,38 @@ impl LaneAnswers {
 /// at once where the CPU allows: each decided lane's answer is the scalar path's, bit for bit.
 #[inline]
 pub fn certified_lanes(p: &Patch<f32>, rays: &LaneRays) -> LaneAnswers {
+    let mut out = LaneAnswers::all(LaneDecision::Miss);
     if p.degenerate {
-        return LaneAnswers::all(LaneDecision::Miss);
+        return out;
     }
-    kernel_for_cpu(p, rays)
+    let hull = hull_for_cpu(p, rays);
+    // One lane past the hull costs the scalar path less than all lanes through the stages below.
+    match hull.passed.count() {
+        0 => out,
+        1 => {
+            for i in (0..LANES).filter(|&i| hull.passed.lane(i)) {
+                out.decision[i] = LaneDecision::Unsure;
+            }
+            out
+        }
+        _ => solve_for_cpu(p, &hull, rays),
+    }
 }
 
-/// [`kernel`] compiled for the widest vectors the CPU has, chosen at run time by the
+/// [`hull_lanes`] compiled for the widest vectors the CPU has, chosen at run time by the
 /// `multiversion` crate: AVX2 (one 256-bit register per 8 lanes), SSE 4.1 (two 128-bit
-/// registers, with `blendv` selects), or the baseline target's SSE2.
+/// registers, with `blendv` selects), or the baseline target's SSE2. A function of its own:
+/// inlined into the stages after it, its loops were vectorised 4 lanes at a time and not
+/// unrolled (about 800 instructions for 8 lanes instead of 250, counted by callgrind).
 #[multiversion(targets("x86_64+avx2", "x86_64+sse4.1"))]
-fn kernel_for_cpu(p: &Patch<f32>, rays: &LaneRays) -> LaneAnswers {
-    kernel(p, rays)
+fn hull_for_cpu(p: &Patch<f32>, rays: &LaneRays) -> HullLanes {
+    hull_lanes(p, rays)
+}
+
+/// [`solve_lanes`] compiled for the widest vectors the CPU has (as [`hull_for_cpu`]).
+#[multiversion(targets("x86_64+avx2", "x86_64+sse4.1"))]
+fn solve_for_cpu(p: &Patch<f32>, hull: &HullLanes, rays: &LaneRays) -> LaneAnswers {
+    solve_lanes(p, hull, rays)
 }
 
 impl LaneAnswers {
@@ -196,10 +215,12 @@ impl F {
     fn eq(self, o: F) -> M {
         test(self, o, |a, b| a == b)
     }
-    /// Neither infinite nor NaN: `|x| < inf`.
+    /// Neither infinite nor NaN: `x - x` is `+0` exactly then (NaN otherwise). The same
+    /// answer as `|x| < inf`, which LLVM turns into a class test it does lane by lane.
     #[inline(always)]
+    #[allow(clippy::eq_op)] // `x - x` is the point: it is NaN for an infinite or NaN `x`
     fn finite(self) -> M {
-        self.abs().lt(F::splat(f32::INFINITY))
+        (self - self).eq(F::splat(0.0))
     }
     /// The sign bit is clear.
     #[inline(always)]
@@ -262,6 +283,11 @@ impl M {
     #[inline(always)]
     fn lane(self, i: usize) -> bool {
         self.0[i] != 0
+    }
+    /// Bit `i` set where lane `i` is.
+    #[inline(always)]
+    fn bits(self) -> u32 {
+        (0..LANES).fold(0, |b, i| b | (self.0[i] & 1) << i)
     }
 }
 
@@ -403,10 +429,21 @@ impl Lanes {
     }
 }
 
-/// The kernel: every lane through the scalar path's certified stages.
+/// The local rays and the lanes past the hull.
+struct HullLanes {
+    /// The local ray's origin.
+    o: V,
+    /// The local ray's direction.
+    d: V,
+    /// The lanes that passed the hull (bad input turned away).
+    passed: M,
+}
+
+/// The kernel's first stage: the local rays, bad input turned away (as `intersect_with`), and
+/// the hull test on every lane.
 #[inline(always)]
-fn kernel(p: &Patch<f32>, rays: &LaneRays) -> LaneAnswers {
-    // Compute the local ray (t is unchanged) and turn bad input away, as `intersect_with`.
+fn hull_lanes(p: &Patch<f32>, rays: &LaneRays) -> HullLanes {
+    // Compute the local ray (t is unchanged) and turn bad input away.
     let (c, s) = (V::splat(p.center), F::splat(p.inv_scale));
     let org = V { x: F(rays.org[0]), y: F(rays.org[1]), z: F(rays.org[2]) };
     let dir = V { x: F(rays.dir[0]), y: F(rays.dir[1]), z: F(rays.dir[2]) };
@@ -414,25 +451,22 @@ fn kernel(p: &Patch<f32>, rays: &LaneRays) -> LaneAnswers {
     let (tmin, tmax) = (F(rays.tmin), F(rays.tmax));
     let zero = F::splat(0.0);
     let bad = !(tmin.eq(tmin) & tmax.eq(tmax) & o.finite() & d.finite()) | d.max_abs().eq(zero);
-    let mut out = LaneAnswers::all(LaneDecision::Miss);
     // A packet hands over every active lane, those that miss the patch's box included: when
     // none meets the box, the prism is not clipped (the prism only narrows the interval).
     let (t0, t1) = box_lanes(p, o, d, tmin, tmax);
-    if !(!bad & t0.le(t1)).any() {
-        return out;
+    let mut passed = !bad & t0.le(t1);
+    if passed.any() {
+        passed = passed & prism_lanes(p, o, d, t0, t1);
     }
-    let passed = !bad & prism_lanes(p, o, d, t0, t1);
-    // One lane past the hull costs the scalar path less than all lanes through the stages below.
-    match passed.count() {
-        0 => return out,
-        1 => {
-            for i in (0..LANES).filter(|&i| passed.lane(i)) {
-                out.decision[i] = LaneDecision::Unsure;
-            }
-            return out;
-        }
-        _ => {}
-    }
+    HullLanes { o, d, passed }
+}
+
+/// The kernel's second stage, for the lanes past the hull: the scalar path's certified stages.
+#[inline(always)]
+fn solve_lanes(p: &Patch<f32>, hull: &HullLanes, rays: &LaneRays) -> LaneAnswers {
+    let (o, d, passed) = (hull.o, hull.d, hull.passed);
+    let (tmin, tmax) = (F(rays.tmin), F(rays.tmax));
+    let mut out = LaneAnswers::all(LaneDecision::Miss);
     // Compute the projection; a direction whose length over- or underflows is bad input too.
     let Some((pr, ok)) = project_lanes(p, o, d) else { return out };
     let mut lanes = Lanes { live: passed & ok, unsure: M::none() };
@@ -442,20 +476,44 @@ fn kernel(p: &Patch<f32>, rays: &LaneRays) -> LaneAnswers {
     let inside = near(u, v, domain_tolerance::<f32>());
     let hit = lanes.live & inside & t.gt(tmin) & t.lt(tmax);
     lanes.give_up(!inside & near(u, v, edge_band::<f32>()));
+    let miss = lanes.live & !hit;
+    if miss.any() {
+        lanes.give_up(miss & sliver_lanes(p, o));
+    }
     let (cu, cv) = clamp_lanes(u, v);
+    // The decisions from the masks' bits (a loop over the masks themselves would pull every
+    // stage above out of the vector registers, lane by lane).
+    let (unsure, hit) = (lanes.unsure.bits(), hit.bits());
     for i in 0..LANES {
-        out.decision[i] = if lanes.unsure.lane(i) {
+        out.decision[i] = if unsure >> i & 1 != 0 {
             LaneDecision::Unsure
-        } else if hit.lane(i) {
+        } else if hit >> i & 1 != 0 {
             LaneDecision::Hit
-        } else if lanes.live.lane(i) && sliver_from_afar(p, V3::new(o.x.0[i], o.y.0[i], o.z.0[i])) {
-            LaneDecision::Unsure
         } else {
             LaneDecision::Miss
         };
     }
     (out.t, out.u, out.v) = (t.0, cu.0, cv.0);
     out
+}
+
+/// `retry`'s `inverse_height` (a copy: it is private there), the same arithmetic: the
+/// reciprocal of the flat triangle's smallest height, `longest edge / |e1 × e2|`.
+#[inline(always)]
+fn inverse_height<T: Real>(p: &Patch<T>) -> T {
+    let (e1, e2) = (p.a + p.d, p.b + p.e);
+    let e3 = e2 - e1;
+    let longest = e1.dot(e1).max(e2.dot(e2)).max(e3.dot(e3)).sqrt();
+    longest / e1.cross(e2).length()
+}
+
+/// `retry`'s `sliver_from_afar` on every lane (local origins `o`; in f32 it always applies),
+/// with the patch's [`inverse_height`] computed once.
+#[inline(always)]
+fn sliver_lanes(p: &Patch<f32>, o: V) -> M {
+    let ih = F::splat(inverse_height(p));
+    let err = F::splat(<f32 as Real>::UNIT_ROUNDOFF) * (F::splat(1.0) + o.max_abs()) * ih;
+    !(err * F::splat(4.0)).le(F::splat(edge_band::<f32>()))
 }
 
 /// `hits_hull`'s first stage on every lane: `(tmin, tmax)` clipped against the bounds.
@@ -543,16 +601,26 @@ fn jacobian_lanes(pr: &ProjLanes, u: F, v: F) -> [F; 4] {
     ]
 }
 
-/// `certificate_holds` at the Jacobian `j`, for the anchor `(j0, 1 / det J0)`.
+/// `Anchor`: `sign(det J0) adj(J0)`, row-major, per lane (the scalar path's `J0⁻¹` up to a
+/// positive factor, computed once per test).
 #[inline(always)]
-fn certificate_lanes(j0: &[F; 4], inv: F, j: [F; 4]) -> M {
-    let m00 = (j0[3] * j[0] - j0[1] * j[2]) * inv;
-    let m01 = (j0[3] * j[1] - j0[1] * j[3]) * inv;
-    let m10 = (j0[0] * j[2] - j0[2] * j[0]) * inv;
-    let m11 = (j0[0] * j[3] - j0[2] * j[1]) * inv;
+fn anchor_lanes(j0: &[F; 4], det0: F) -> [F; 4] {
+    let one = F::splat(1.0);
+    let s = select(det0.gt(F::splat(0.0)), one, -one);
+    [j0[3] * s, -j0[1] * s, -j0[2] * s, j0[0] * s]
+}
+
+/// `certificate_holds` at the Jacobian `j`, for the anchor `k` ([`anchor_lanes`]).
+#[inline(always)]
+fn certificate_lanes(k: &[F; 4], j: [F; 4]) -> M {
+    let m00 = k[0] * j[0] + k[1] * j[2];
+    let m01 = k[0] * j[1] + k[1] * j[3];
+    let m10 = k[2] * j[0] + k[3] * j[2];
+    let m11 = k[2] * j[1] + k[3] * j[3];
     let h = (m01 + m10) * F::splat(0.5);
     let zero = F::splat(0.0);
-    m00.gt(zero) & m11.gt(zero) & (m00 * m11 - h * h).gt(F::splat(0.01) * m00 * m11)
+    let margin = F::splat(0.01f64 as f32) * m00 * m11;
+    m00.gt(zero) & m11.gt(zero) & (m00 * m11 - h * h).gt(margin)
 }
 
 /// The corners' coordinates of the certificate's region (as `region`).
@@ -560,26 +628,123 @@ fn region() -> (f32, f32) {
     ((-0.25f64 / 3.0) as f32, (3.5f64 / 3.0) as f32)
 }
 
-/// `certified_newton` up to `decide`: the certificate on the region, the flat start, Newton in
-/// the plane, the point's `t`, the Newton step in space and the checks of the root. Lanes that
-/// fail a check are handed to the scalar path.
+/// `det2`: `det A` for a 2×2 matrix, row-major.
 #[inline(always)]
-fn certified_root(p: &Patch<f32>, o: V, d: V, pr: &ProjLanes, lanes: &mut Lanes) -> (F, F, F) {
+fn det2_lanes(a: &[F; 4]) -> F {
+    a[0] * a[3] - a[1] * a[2]
+}
+
+/// `mixed`: `m(A, B) = a00 b11 + b00 a11 - a01 b10 - b01 a10`.
+#[inline(always)]
+fn mixed_lanes(a: &[F; 4], b: &[F; 4]) -> F {
+    (a[0] * b[3] + b[0] * a[3]) - (a[1] * b[2] + b[1] * a[2])
+}
+
+/// `DetSign`, the det-sign certificate on the domain, per lane: the Jacobian at the domain's
+/// corners, the sign of `det J` there and `K²`.
+struct DetSignLanes {
+    corners: [[F; 4]; 3],
+    sign: F,
+    k2: F,
+}
+
+/// `det_sign_on_domain` at `domain_jacobians` on every lane: the certificate, and the lanes
+/// where it holds (`det J`'s six Bernstein coefficients of one sign, clear of their margin).
+#[inline(always)]
+fn det_sign_lanes(pr: &ProjLanes) -> (DetSignLanes, M) {
+    let ([fa, fb, fc, fd, fe, _], [ga, gb, gc, gd, ge, _]) = (pr.f, pr.g);
+    let (zero, one, two) = (F::splat(0.0), F::splat(1.0), F::splat(2.0));
+    // Compute the margin from the conics' largest coefficient (`Conic::norm`), at w = 2.
+    let norm = |c: &[F; 6]| c.iter().fold(zero, |m, x| m.max(x.abs()));
+    let k = norm(&pr.f).max(norm(&pr.g)) * two;
+    let k2 = k * k;
+    let m = F::splat(<f32 as Real>::gamma(16) * 4.0) * k2 * (two * two);
+    // Compute the Jacobian at the domain's corners (`domain_jacobians`) and the six coefficients.
+    let j = [
+        [fd, fe, gd, ge],
+        [two * fa + fd, fc + fe, two * ga + gd, gc + ge],
+        [fc + fd, two * fb + fe, gc + gd, two * gb + ge],
+    ];
+    let c = [
+        det2_lanes(&j[0]),
+        det2_lanes(&j[1]),
+        det2_lanes(&j[2]),
+        mixed_lanes(&j[0], &j[1]),
+        mixed_lanes(&j[1], &j[2]),
+        mixed_lanes(&j[2], &j[0]),
+    ];
+    let sign = select(c[0].gt(zero), one, -one);
+    let holds = c.iter().fold(!M::none(), |h, &x| h & (x * sign).gt(m));
+    (DetSignLanes { corners: j, sign, k2 }, holds)
+}
+
+impl DetSignLanes {
+    /// `DetSign::holds_to`: the certificate extends to the hull of the domain and the root
+    /// `(u, v)`, where the Jacobian is `jr`.
+    #[inline(always)]
+    fn holds_to(&self, jr: [F; 4], u: F, v: F) -> M {
+        let w = F::splat(2.0).max(F::splat(1.0) + u.abs() + v.abs());
+        let m = F::splat(<f32 as Real>::gamma(64) * 24.0) * self.k2 * (w * w);
+        let c = [
+            det2_lanes(&jr),
+            mixed_lanes(&jr, &self.corners[0]),
+            mixed_lanes(&jr, &self.corners[1]),
+            mixed_lanes(&jr, &self.corners[2]),
+        ];
+        c.iter().fold(!M::none(), |h, &x| h & (x * self.sign).gt(m))
+    }
+}
+
+/// The proofs that the projection is one-to-one, per lane, as `proof_on_region` picks them:
+/// the positive-definite certificate on `R` where it holds, the det-sign certificate on the
+/// domain where it does not.
+struct ProofLanes {
+    /// The lanes proven by the positive-definite certificate (the others live ones by det-sign).
+    pd: M,
+    /// The positive-definite certificate's anchor.
+    anchor: [F; 4],
+    /// The det-sign certificate (meaningful on the live lanes outside `pd`).
+    ds: DetSignLanes,
+}
+
+/// `proof_on_region` with `Proofs::WithDetSign` on the live lanes; lanes that neither
+/// certificate proves are handed to the scalar path.
+#[inline(always)]
+fn proof_lanes(pr: &ProjLanes, lanes: &mut Lanes) -> ProofLanes {
     // Compute the anchor and the certificate at the region's corners (`one_to_one_on_region`).
     let third = F::splat((1.0f64 / 3.0) as f32);
     let j0 = jacobian_lanes(pr, third, third);
     let det0 = j0[0] * j0[3] - j0[1] * j0[2];
     let j0n = j0.iter().fold(F::splat(0.0), |m, x| m.max(x.abs()));
     let g64 = <f32 as Real>::gamma(64);
-    lanes.give_up(!det0.abs().gt(F::splat(g64.sqrt()) * j0n * j0n));
-    let inv = F::splat(1.0) / det0;
+    let mut pd = det0.abs().gt(F::splat(g64.sqrt()) * j0n * j0n);
+    let anchor = anchor_lanes(&j0, det0);
     let (lo, hi) = region();
     let (lo, hi) = (F::splat(lo), F::splat(hi));
     for (cu, cv) in [(lo, lo), (hi, lo), (lo, hi)] {
-        lanes.give_up(!certificate_lanes(&j0, inv, jacobian_lanes(pr, cu, cv)));
+        pd = pd & certificate_lanes(&anchor, jacobian_lanes(pr, cu, cv));
     }
+    let pd = lanes.live & pd;
+    // Compute the det-sign certificate where the first fails.
+    let rest = lanes.live & !pd;
+    let (ds, holds) = if rest.any() {
+        det_sign_lanes(pr)
+    } else {
+        let z = F::splat(0.0);
+        (DetSignLanes { corners: [[z; 4]; 3], sign: z, k2: z }, M::none())
+    };
+    lanes.give_up(rest & !holds);
+    ProofLanes { pd, anchor, ds }
+}
+
+/// `certified_newton` up to `decide`: the certificates, the flat start, Newton in
+/// the plane, the point's `t`, the Newton step in space and the checks of the root. Lanes that
+/// fail a check are handed to the scalar path.
+#[inline(always)]
+fn certified_root(p: &Patch<f32>, o: V, d: V, pr: &ProjLanes, lanes: &mut Lanes) -> (F, F, F) {
+    let zero = F::splat(0.0);
+    let proof = proof_lanes(pr, lanes);
     if !lanes.live.any() {
-        let zero = F::splat(0.0);
         return (zero, zero, zero);
     }
     let (u, v) = flat_start_lanes(pr, lanes);
@@ -592,12 +757,23 @@ fn certified_root(p: &Patch<f32>, o: V, d: V, pr: &ProjLanes, lanes: &mut Lanes)
     let (su, sv, st, ok) = newton_step_lanes(&pl, o, d, u, v, t);
     lanes.give_up(step & !ok);
     let (u, v, t) = (select(step, su, u), select(step, sv, v), select(step, st, t));
-    // The root must be on the ray, and R's only root (inside R, or the certificate at it).
+    // The root must be on the ray, and the proof's region's only root: inside the region (`R`
+    // for the positive-definite certificate, the domain for det-sign), or the certificate
+    // extends to it.
     let slack = F::splat(0.005);
     let one = F::splat(1.0);
+    let lo = select(proof.pd, F::splat(region().0), zero);
     let in_r = u.ge(lo + slack) & v.ge(lo + slack) & (u + v).le(one - lo - slack);
-    let at_root = certificate_lanes(&j0, inv, jacobian_lanes(pr, u, v));
-    lanes.give_up(!on_ray_lanes(&pl, o, d, u, v, t) | !(in_r | at_root));
+    let beyond = lanes.live & !in_r;
+    let extends = if beyond.any() {
+        let jr = jacobian_lanes(pr, u, v);
+        let by_pd = proof.pd & certificate_lanes(&proof.anchor, jr);
+        let by_ds = !proof.pd & proof.ds.holds_to(jr, u, v);
+        by_pd | by_ds
+    } else {
+        M::none()
+    };
+    lanes.give_up(!on_ray_lanes(&pl, o, d, u, v, t) | !(in_r | extends));
     (u, v, t)
 }
 
