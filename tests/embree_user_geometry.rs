@@ -184,7 +184,7 @@ unsafe extern "C" fn reject_even(args: *const sys::RTCFilterFunctionNArguments) 
             continue;
         }
         let prim = *hit.add(5 * n + lane);
-        if prim % 2 == 0 {
+        if prim.is_multiple_of(2) {
             *valid = 0;
         }
     }
