@@ -1,12 +1,21 @@
-//! Helpers shared by the integration tests (each test file that needs them says `mod common;`).
+//! Helpers shared by the integration tests (each test file that needs them says `mod common;`),
+//! of this package and of the workspace's other crates, whose `tests/common/mod.rs` include this
+//! file by path.
 #![allow(dead_code)]
 
 use std::path::{Path, PathBuf};
 use std::process::Command;
 
-/// The workspace root (this package's directory).
+/// The workspace root: the package's directory for the library, two levels above it for a
+/// crate in `crates/NAME`.
 pub fn root() -> PathBuf {
-    PathBuf::from(env!("CARGO_MANIFEST_DIR"))
+    let dir = Path::new(env!("CARGO_MANIFEST_DIR"));
+    match dir.parent() {
+        Some(crates) if crates.file_name() == Some("crates".as_ref()) => {
+            crates.parent().unwrap().to_path_buf()
+        }
+        _ => dir.to_path_buf(),
+    }
 }
 
 /// `target/<profile>`, where cargo puts the workspace's libraries and binaries.
@@ -31,13 +40,18 @@ pub fn compile_c(source: &Path, name: &str) -> (tempfile::TempDir, PathBuf) {
     let out = tempfile::tempdir().unwrap();
     let exe = out.path().join(name);
     std::os::unix::fs::symlink(&so, out.path().join("libphongrt.so.0")).unwrap();
-    let emb_lib = env!("PHONGRT_EMBREE_LIB_DIR");
+    // Set by the build scripts of the crates whose tests compile C (not phongrt-render's).
+    let (Some(emb_lib), Some(emb_include)) =
+        (option_env!("PHONGRT_EMBREE_LIB_DIR"), option_env!("PHONGRT_EMBREE_INCLUDE_DIR"))
+    else {
+        panic!("this crate's build script does not set PHONGRT_EMBREE_LIB_DIR and PHONGRT_EMBREE_INCLUDE_DIR")
+    };
     let mut c = Command::new(std::env::var("CC").unwrap_or_else(|_| "cc".into()));
     c.args(["-std=c99", "-O1", "-g", "-Wall", "-Wextra", "-Werror", "-o"])
         .arg(&exe)
         .arg(source)
         .arg(format!("-I{}", root().join("include").display()))
-        .arg(format!("-I{}", env!("PHONGRT_EMBREE_INCLUDE_DIR")))
+        .arg(format!("-I{emb_include}"))
         .arg(format!("-L{}", lib_dir.display()))
         .arg(format!("-Wl,-rpath,{}", out.path().display()))
         .arg("-lphongrt");
