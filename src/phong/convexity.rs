@@ -102,7 +102,8 @@ pub fn convexity<T: Real>(p: &Patch<T>) -> Convexity {
 /// whose far side would rise). Computed in f64, with a margin far above its rounding;
 /// `false` whenever in doubt (a point outside the triangle, a ray along the plane, a negative
 /// `tnear`, a degenerate normal).
-#[inline]
+/// Not inlined: the ray callbacks that call it stay lean for the other patches' tests.
+#[inline(never)]
 pub fn leaves_patch<T: Real>(
     p: &Patch<T>,
     conv: Convexity,
