@@ -715,12 +715,7 @@ unsafe fn for_each_candidate<T: UserPrimitives>(
 ) {
     let mut rays = NO_RAYS;
     // SAFETY: the layout is RTCRayN of width valid.len() (this function's contract).
-    unsafe { read_packet(ray, valid, &mut rays) };
-    for lane in 0..rays.n {
-        if rays.active[lane] {
-            rays.origin[lane] = origin(lane);
-        }
-    }
+    unsafe { read_packet(ray, valid, origin, &mut rays) };
     let mut hits = [None; MAX_N];
     data.intersect_packet(prim, &rays, &mut hits);
     for lane in 0..rays.n {
@@ -770,13 +765,19 @@ unsafe fn offer_hits<T: UserPrimitives>(
 }
 
 /// The rays of a packet of width `valid.len()` (at most [`MAX_N`]), the lanes `valid` marks
-/// active (Embree's `-1`), the other lanes' fields zero, written to `p` (zeroed by the caller).
+/// active (Embree's `-1`) with their origins `origin(lane)`, the other lanes' fields zero,
+/// written to `p` (zeroed by the caller).
 ///
 /// # Safety
 /// `ray` must be an RTCRayN of width `valid.len()`.
 #[inline(always)]
 #[allow(clippy::needless_range_loop)] // lane loops index several arrays by the lane
-unsafe fn read_packet(ray: Soa, valid: &[i32], p: &mut PacketRays) {
+unsafe fn read_packet(
+    ray: Soa,
+    valid: &[i32],
+    origin: impl Fn(usize) -> Option<OriginPrim>,
+    p: &mut PacketRays,
+) {
     let n = valid.len().min(MAX_N);
     p.n = n;
     for lane in 0..n {
@@ -799,6 +800,11 @@ unsafe fn read_packet(ray: Soa, valid: &[i32], p: &mut PacketRays) {
             // SAFETY: lane < n and the layout is RTCRayN of width n (this function's contract).
             let x = unsafe { ray.f(field, lane) };
             out[lane] = if p.active[lane] { x } else { 0.0 };
+        }
+    }
+    for lane in 0..n {
+        if p.active[lane] {
+            p.origin[lane] = origin(lane);
         }
     }
 }
@@ -870,7 +876,12 @@ unsafe fn occluded_one<T: UserPrimitives>(
     }
     let ray = Soa { base: a.ray as *mut u32, n: 1 };
     // SAFETY: lane 0 of an RTCRayN of width 1; `a.context` is the query's context.
-    let (r, from) = unsafe { (read_ray(ray, 0), origin_of(a.context, a.geomID, ray.u(RAY_ID, 0))) };
+    let (r, id) = unsafe { (read_ray(ray, 0), ray.u(RAY_ID, 0)) };
+    // Only a ray that names an origin entry looks for the registration.
+    let head = if id == 0 { None } else { registered(a.context) };
+    // SAFETY: `head` is registered for the running query, `a.context` Embree's pointer to its
+    // context.
+    let from = head.and_then(|head| unsafe { origin_in(head, a.context, a.geomID, id) });
     if let Some(first) = data.intersect_from(a.primID, from, r.org, r.dir, r.tnear, r.tfar) {
         // SAFETY: lane 0 < 1, and the offer is made for the packet Embree passed.
         unsafe { offer_hits(data, a.primID, 0, from, ray, first, &mut OccludedOne { args }) }
@@ -914,9 +925,12 @@ unsafe fn occluded_lanes<T: UserPrimitives>(
     // SAFETY: `valid` points to N ints (RTCOccludedFunctionNArguments contract).
     let valid = unsafe { std::slice::from_raw_parts(a.valid, n) };
     let ray = Soa { base: a.ray as *mut u32, n };
+    // The registration once for the packet, each lane's entry by its id.
+    let head = registered(a.context);
     let origin = |lane: usize| {
-        // SAFETY: lane < n in an RTCRayN of width n; `a.context` is the query's context.
-        unsafe { origin_of(a.context, a.geomID, ray.u(RAY_ID, lane)) }
+        // SAFETY: lane < n in an RTCRayN of width n; `head` is registered for the running query
+        // and `a.context` is Embree's pointer to its context.
+        unsafe { origin_in(head?, a.context, a.geomID, ray.u(RAY_ID, lane)) }
     };
     let mut offer = OccludedOffer { args, ray, cand: Candidates::new(n) };
     // SAFETY: `ray` is the ray part of the packet Embree passed, of width n, and the offer is
@@ -983,7 +997,7 @@ impl<const N: usize> OriginContext<N> {
         let p: *mut Self = self;
         // SAFETY: `p` points to `self`, borrowed exclusively for this call; the base is the one
         // part Embree writes through (its instance stack), and the callbacks read the rest (the
-        // length and the origins) through `p`, registered below (origin_of).
+        // length and the origins) through `p`, registered below (origin_in).
         let base = unsafe { &mut (*p).head.base };
         let mut args = OccludedArgs::new().flags(query_flags(coherent)).context(base);
         let _outer = Registered(ORIGIN_CONTEXT.with(|c| c.replace(p as *const OriginHead)));
@@ -991,19 +1005,28 @@ impl<const N: usize> OriginContext<N> {
     }
 }
 
-/// The origin of the ray with `id` when it starts on geometry `geom` at the instance level the
-/// query is at now (the context's instance stack): `None` for a ray that names no entry
-/// (`id == 0`), or a context that is not the thread's registered [`OriginContext`].
+/// The thread's registered [`OriginContext`], if `context` is it.
+#[inline(always)]
+fn registered(context: *const sys::RTCRayQueryContext) -> Option<*const OriginHead> {
+    let head = ORIGIN_CONTEXT.with(Cell::get);
+    (!head.is_null() && head as *const sys::RTCRayQueryContext == context).then_some(head)
+}
+
+/// The origin of the ray with `id` in the registered context `head` when it starts on geometry
+/// `geom` at the instance level the query is at now (the context's instance stack): `None` for
+/// a ray that names no entry (`id == 0`, or past the origins).
 ///
 /// # Safety
-/// `context` must be Embree's pointer to the running query's context.
+/// `head` must be the registered context of the running query ([`registered`]), and `context`
+/// Embree's pointer to it.
 #[inline(always)]
-unsafe fn origin_of(context: *const sys::RTCRayQueryContext, geom: u32, id: u32) -> Option<OriginPrim> {
+unsafe fn origin_in(
+    head: *const OriginHead,
+    context: *const sys::RTCRayQueryContext,
+    geom: u32,
+    id: u32,
+) -> Option<OriginPrim> {
     let k = (id as usize).checked_sub(1)?;
-    let head = ORIGIN_CONTEXT.with(Cell::get);
-    if head.is_null() || head as *const sys::RTCRayQueryContext != context {
-        return None;
-    }
     // SAFETY: `head` is the registered context of the query this callback runs under, which
     // `OriginContext::query` keeps alive (on its caller's stack) until it returns; its length
     // and origins are read through the registered pointer (Embree writes only the base), the
@@ -1055,10 +1078,11 @@ impl CommittedScene {
         if active == 0 {
             return 0;
         }
-        let mut ctx = OriginContext::<PACKET8>::new(origins.map(|o| o.unwrap_or(NO_ORIGIN)));
+        let mut ctx = OriginContext::<PACKET8>::new([NO_ORIGIN; PACKET8]);
         let mut ray = rayhit8(rays).ray;
         for (k, o) in origins.iter().enumerate() {
-            if o.is_some() {
+            if let Some(o) = o {
+                ctx.origins[k] = *o;
                 ray.id[k] = k as u32 + 1;
             }
         }
