@@ -3,10 +3,11 @@
 mod common;
 use glam::{Mat4, Vec3};
 use std::panic::{catch_unwind, AssertUnwindSafe};
+use std::sync::Arc;
 
 use phongrt::embree::{
-    CommittedScene, Device, EmbreeError, GeometryOptions, IntersectArgs, OccludedArgs, PrimHit, QueryContext,
-    Ray, Scene, UserPrimitives, UserTriangles,
+    new_rayhit, CommittedScene, Device, EmbreeError, GeometryOptions, IntersectArgs, OccludedArgs,
+    OriginPrim, PrimHit, QueryContext, Ray, RayOrigin, Scene, UserPrimitives, UserTriangles, PACKET8,
 };
 use phongrt::sys;
 
@@ -611,4 +612,163 @@ fn a_filter_rejecting_every_candidate_leaves_the_hit_of_another_geometry_whole()
             );
         }
     }
+}
+
+/// Octahedron triangles (moved by a shift) that record, for every call of the occlusion route,
+/// the object-space origin of the ray and the origin Embree's callback handed them.
+struct RecordingTriangles {
+    tris: UserTriangles,
+    seen: std::sync::Mutex<Vec<(Vec3, Option<OriginPrim>)>>,
+}
+
+impl RecordingTriangles {
+    fn new(shift: Vec3) -> Arc<Self> {
+        let (p, indices) = octahedron();
+        let tris = UserTriangles { positions: p.iter().map(|v| *v + shift).collect(), indices };
+        Arc::new(RecordingTriangles { tris, seen: Default::default() })
+    }
+
+    /// The calls since the last `take`.
+    fn take(&self) -> Vec<(Vec3, Option<OriginPrim>)> {
+        std::mem::take(&mut *self.seen.lock().unwrap())
+    }
+}
+
+impl UserPrimitives for RecordingTriangles {
+    fn count(&self) -> u32 {
+        self.tris.count()
+    }
+    fn bounds(&self, prim: u32) -> Option<(Vec3, Vec3)> {
+        self.tris.bounds(prim)
+    }
+    fn intersect(&self, prim: u32, org: Vec3, dir: Vec3, tnear: f32, tfar: f32) -> Option<PrimHit> {
+        self.tris.intersect(prim, org, dir, tnear, tfar)
+    }
+    fn intersect_from(
+        &self,
+        prim: u32,
+        origin: Option<OriginPrim>,
+        org: Vec3,
+        dir: Vec3,
+        tnear: f32,
+        tfar: f32,
+    ) -> Option<PrimHit> {
+        self.seen.lock().unwrap().push((org, origin));
+        self.intersect(prim, org, dir, tnear, tfar)
+    }
+}
+
+/// A shadow ray from where `eye -> -z` hits `scene`, towards `to`, with the hit as its origin.
+fn shadow_from_hit(scene: &CommittedScene, eye: Vec3, to: Vec3) -> (Ray, RayOrigin) {
+    let h = scene.intersect1(Ray::new(eye, -Vec3::Z)).expect("the eye ray hits");
+    let p = eye - Vec3::Z * h.t;
+    (Ray::new(p, to - p), RayOrigin::of_hit(&h))
+}
+
+/// A point in the box of the octahedron moved 3 units along x, outside the octahedron: a ray
+/// from the first octahedron towards it meets the second's boxes, not its faces.
+const PAST_B: Vec3 = Vec3::new(3.0, 0.9, 0.9);
+
+/// The origin a callback should see for `o`.
+fn prim_of(o: &RayOrigin) -> Option<OriginPrim> {
+    Some(OriginPrim { prim: o.prim, u: o.u, v: o.v })
+}
+
+#[test]
+fn an_occlusion_ray_sees_its_origin_on_the_geometry_it_starts_on_and_nowhere_else() {
+    let device = Device::new().unwrap();
+    // A at the origin, B 3 units along x: two geometries of one scene.
+    let (a, b) = (RecordingTriangles::new(Vec3::ZERO), RecordingTriangles::new(Vec3::X * 3.0));
+    let mut scene = Scene::new(&device).unwrap();
+    scene.attach_user(a.clone(), GeometryOptions::default()).unwrap();
+    scene.attach_user(b.clone(), GeometryOptions::default()).unwrap();
+    let scene = scene.commit().unwrap();
+    let (ray, origin) = shadow_from_hit(&scene, Vec3::new(0.2, 0.1, 5.0), PAST_B);
+    a.take();
+    b.take();
+    // Compute the occlusion with the origin: A's calls see it, B's do not. (Whether the ray
+    // meets the face it starts on again is the triangle test's rounding: the answer is not
+    // asked; a ray that stops early would leave out calls, so it passes B by.)
+    scene.occluded1_from(ray, Some(origin));
+    let (seen_a, seen_b) = (a.take(), b.take());
+    assert!(!seen_a.is_empty() && !seen_b.is_empty(), "{} calls on A, {} on B", seen_a.len(), seen_b.len());
+    assert!(seen_a.iter().all(|(_, o)| *o == prim_of(&origin)), "{seen_a:?}");
+    assert!(seen_b.iter().all(|(_, o)| o.is_none()), "{seen_b:?}");
+    // Without an origin, or with one on another geometry, no call sees one.
+    scene.occluded1_from(ray, None);
+    scene.occluded1_from(ray, Some(RayOrigin { geom_id: origin.geom_id + 7, ..origin }));
+    scene.occluded1(ray);
+    assert!(a.take().iter().chain(&b.take()).all(|(_, o)| o.is_none()));
+}
+
+#[test]
+fn an_occlusion_ray_sees_its_origin_only_in_the_instance_it_starts_on() {
+    let device = Device::new().unwrap();
+    let rec = RecordingTriangles::new(Vec3::ZERO);
+    let mut child = Scene::new(&device).unwrap();
+    child.attach_user(rec.clone(), GeometryOptions::default()).unwrap();
+    let child = child.commit().unwrap();
+    let mut top = Scene::new(&device).unwrap();
+    let shift = Vec3::X * 3.0;
+    top.attach_instance(&child, Mat4::IDENTITY, u32::MAX).unwrap();
+    top.attach_instance(&child, Mat4::from_translation(shift), u32::MAX).unwrap();
+    let top = top.commit().unwrap();
+    let (ray, origin) = shadow_from_hit(&top, Vec3::new(0.2, 0.1, 5.0), PAST_B);
+    rec.take();
+    top.occluded1_from(ray, Some(origin));
+    // The first instance is the identity: its calls see the ray's own origin; the second's see
+    // it shifted, and no origin (the instance stack differs).
+    let seen = rec.take();
+    let (first, second): (Vec<_>, Vec<_>) = seen.iter().partition(|(org, _)| *org == ray.org);
+    assert!(!first.is_empty() && !second.is_empty() && first.len() + second.len() == seen.len());
+    assert!(first.iter().all(|(_, o)| *o == prim_of(&origin)), "{first:?}");
+    assert!(second.iter().all(|(org, o)| o.is_none() && (*org - (ray.org - shift)).length() < 1e-5));
+}
+
+#[test]
+fn packet_lanes_see_their_own_origins() {
+    let device = Device::new().unwrap();
+    let rec = RecordingTriangles::new(Vec3::ZERO);
+    let mut scene = Scene::new(&device).unwrap();
+    scene.attach_user(rec.clone(), GeometryOptions::default()).unwrap();
+    let scene = scene.commit().unwrap();
+    // Eight rays leaving the octahedron's upper faces upwards, every other one with its origin.
+    let shadows: Vec<(Ray, RayOrigin)> = (0..8)
+        .map(|k| {
+            let eye = Vec3::new(0.1 * k as f32 - 0.35, 0.05 * k as f32 - 0.2, 5.0);
+            shadow_from_hit(&scene, eye, eye + Vec3::new(0.0, 0.0, 1.0))
+        })
+        .collect();
+    let rays: [Ray; PACKET8] = std::array::from_fn(|k| shadows[k].0);
+    let origins: [Option<RayOrigin>; PACKET8] = std::array::from_fn(|k| (k % 2 == 0).then_some(shadows[k].1));
+    for coherent in [false, true] {
+        rec.take();
+        // (Whether a lane meets the face it starts on again is the triangle test's rounding.)
+        scene.occluded8_rays_from(&rays, &origins, 0xff, coherent);
+        let seen = rec.take();
+        for (k, r) in rays.iter().enumerate() {
+            let lane: Vec<_> = seen.iter().filter(|(org, _)| *org == r.org).collect();
+            assert!(!lane.is_empty(), "lane {k} tests the face it starts on");
+            let want = origins[k].as_ref().and_then(prim_of);
+            assert!(lane.iter().all(|(_, o)| *o == want), "lane {k}: {lane:?}");
+        }
+    }
+}
+
+#[test]
+fn a_ray_id_under_the_callers_own_context_names_no_origin() {
+    let device = Device::new().unwrap();
+    let rec = RecordingTriangles::new(Vec3::ZERO);
+    let mut scene = Scene::new(&device).unwrap();
+    scene.attach_user(rec.clone(), GeometryOptions::default()).unwrap();
+    let scene = scene.commit().unwrap();
+    let (ray, _) = shadow_from_hit(&scene, Vec3::new(0.2, 0.1, 5.0), Vec3::new(0.2, 0.1, 9.0));
+    rec.take();
+    // A raw query whose ray carries an id, under a context of the caller's own: no origin is
+    // read from past that context.
+    let mut r = sys::RTCRay { id: 1, ..new_rayhit(ray).ray };
+    let mut ctx = QueryContext::new();
+    scene.occluded1_raw(&mut r, Some(&mut OccludedArgs::new().context(&mut ctx)));
+    let seen = rec.take();
+    assert!(!seen.is_empty() && seen.iter().all(|(_, o)| o.is_none()), "{seen:?}");
 }

@@ -487,6 +487,118 @@ impl Offer for OccludedOffer {
 }
 
 // ---------------------------------------------------------------------------------------------
+// One lane (rtcIntersect1 / rtcOccluded1, a renderer's rays one by one): an RTCRayN and an RTCHitN
+// of width 1 hold field k at index k, so the candidate is an `RTCHit` of our own, every field
+// written (nothing to zero), and the filters see it with a valid mask of one int.
+
+/// Lane 0's candidate `h` on geometry `geom` as a one-lane hit, with the instance stack of
+/// `context`.
+///
+/// # Safety
+/// `context` must be the query's valid context.
+#[inline(always)]
+unsafe fn one_lane_hit(h: &PrimHit, geom: u32, context: *const sys::RTCRayQueryContext) -> sys::RTCHit {
+    // SAFETY: a valid context (this function's contract).
+    let ctx = unsafe { &*context };
+    sys::RTCHit {
+        Ng_x: h.ng.x,
+        Ng_y: h.ng.y,
+        Ng_z: h.ng.z,
+        u: h.u,
+        v: h.v,
+        primID: h.prim,
+        geomID: geom,
+        instID: ctx.instID,
+        instPrimID: ctx.instPrimID,
+    }
+}
+
+/// The candidates of a one-lane intersect callback: an accepted one becomes the ray's hit.
+struct IntersectOne {
+    args: *const sys::RTCIntersectFunctionNArguments,
+}
+
+impl Offer for IntersectOne {
+    #[inline(always)]
+    unsafe fn offer(&mut self, _lane: usize, r: &LaneRay, h: &PrimHit) -> bool {
+        // SAFETY: `args` is a one-lane intersect callback's argument block: `rayhit` an
+        // RTCRayHitN of width 1 (the ray's 12 fields, then its hit's HIT_FIELDS), `context` the
+        // query's. The filter sees the candidate with the ray's tfar set to it.
+        unsafe {
+            let a = &*self.args;
+            let ray = Soa { base: a.rayhit as *mut u32, n: 1 };
+            let mut cand = one_lane_hit(h, a.geomID, a.context);
+            ray.set_f(RAY_TFAR, 0, h.t);
+            let mut valid = -1i32;
+            let fargs = sys::RTCFilterFunctionNArguments {
+                valid: &mut valid,
+                geometryUserPtr: a.geometryUserPtr,
+                context: a.context,
+                ray: a.rayhit as *mut sys::RTCRayN,
+                hit: (&mut cand as *mut sys::RTCHit).cast(),
+                N: a.N,
+            };
+            // As in `IntersectOffer::offer`, the packet one lane wide.
+            sys::rtcInvokeIntersectFilterFromGeometry(self.args, &fargs);
+            if valid != -1 {
+                ray.set_f(RAY_TFAR, 0, r.tfar);
+                return false;
+            }
+            let hit = ray.base.add(RAY_FIELDS);
+            hit.copy_from_nonoverlapping((&cand as *const sys::RTCHit).cast(), HIT_FIELDS);
+            true
+        }
+    }
+}
+
+/// The candidates of a one-lane occluded callback: an accepted one occludes the ray.
+struct OccludedOne {
+    args: *const sys::RTCOccludedFunctionNArguments,
+}
+
+impl Offer for OccludedOne {
+    #[inline(always)]
+    unsafe fn offer(&mut self, _lane: usize, r: &LaneRay, h: &PrimHit) -> bool {
+        // SAFETY: as in `IntersectOne::offer`, with `ray` the callback's RTCRayN of width 1.
+        unsafe {
+            let a = &*self.args;
+            let ray = Soa { base: a.ray as *mut u32, n: 1 };
+            let mut cand = one_lane_hit(h, a.geomID, a.context);
+            ray.set_f(RAY_TFAR, 0, h.t);
+            let mut valid = -1i32;
+            let fargs = sys::RTCFilterFunctionNArguments {
+                valid: &mut valid,
+                geometryUserPtr: a.geometryUserPtr,
+                context: a.context,
+                ray: a.ray,
+                hit: (&mut cand as *mut sys::RTCHit).cast(),
+                N: a.N,
+            };
+            // As in `OccludedOffer::offer`, the packet one lane wide.
+            sys::rtcInvokeOccludedFilterFromGeometry(self.args, &fargs);
+            if valid != -1 {
+                ray.set_f(RAY_TFAR, 0, r.tfar);
+                return false;
+            }
+            ray.set_f(RAY_TFAR, 0, f32::NEG_INFINITY);
+            true
+        }
+    }
+}
+
+// An RTCHit is the hit of a one-lane RTCHitN: its HIT_FIELDS values first, in that order.
+const _: () = {
+    use std::mem::offset_of;
+    assert!(offset_of!(sys::RTCHit, Ng_x) == 4 * HIT_NG && offset_of!(sys::RTCHit, u) == 4 * HIT_U);
+    assert!(offset_of!(sys::RTCHit, v) == 4 * HIT_V && offset_of!(sys::RTCHit, primID) == 4 * HIT_PRIM);
+    assert!(
+        offset_of!(sys::RTCHit, geomID) == 4 * HIT_GEOM && offset_of!(sys::RTCHit, instID) == 4 * HIT_INST
+    );
+    assert!(offset_of!(sys::RTCHit, instPrimID) == 4 * HIT_INST_PRIM);
+    assert!(std::mem::size_of::<sys::RTCHit>() >= 4 * HIT_FIELDS);
+};
+
+// ---------------------------------------------------------------------------------------------
 // Callbacks.
 
 unsafe extern "C" fn bounds_callback<T: UserPrimitives>(args: *const sys::RTCBoundsFunctionArguments) {
@@ -521,15 +633,55 @@ unsafe extern "C" fn intersect_callback<T: UserPrimitives>(args: *const sys::RTC
     let a = unsafe { &*args };
     // SAFETY: as above.
     let data = unsafe { &*(a.geometryUserPtr as *const UserData<T>) };
-    // One lane (rtcIntersect1, what the renderer calls) and eight (rtcIntersect8, its packets)
-    // get their own copies with the width a constant, so the SOA indexing and the lane loops
-    // fold away; each under its own `wrap`, so that the one-lane body stays small enough to be
-    // inlined there.
+    // One lane (rtcIntersect1, what a renderer calls per ray) is the body of this callback, with
+    // a frame of its own size; packets go to a function of their own.
+    if a.N == 1 {
+        // SAFETY: `a` is the argument block Embree passed, with N = 1.
+        panic::wrap(&data.panics, "intersect", || unsafe { intersect_one::<T>(args, a, &data.prims) });
+    } else {
+        // SAFETY: as above, with N != 1.
+        unsafe { intersect_packet_callback::<T>(args, a, data) }
+    }
+}
+
+/// The body of [`intersect_callback`] for one lane.
+///
+/// # Safety
+/// `a` is `*args`, valid arguments from Embree with `a.N == 1`, and `data` the primitives its
+/// geometryUserPtr holds.
+#[inline(always)]
+unsafe fn intersect_one<T: UserPrimitives>(
+    args: *const sys::RTCIntersectFunctionNArguments,
+    a: &sys::RTCIntersectFunctionNArguments,
+    data: &T,
+) {
+    // SAFETY: `valid` points to N = 1 int (RTCIntersectFunctionNArguments contract).
+    if unsafe { a.valid.read() } != -1 {
+        return;
+    }
+    let ray = Soa { base: a.rayhit as *mut u32, n: 1 };
+    // SAFETY: lane 0 of the ray part of an RTCRayHitN of width 1.
+    let r = unsafe { read_ray(ray, 0) };
+    if let Some(first) = data.intersect_from(a.primID, None, r.org, r.dir, r.tnear, r.tfar) {
+        // SAFETY: lane 0 < 1, and the offer is made for the packet Embree passed.
+        unsafe { offer_hits(data, a.primID, 0, None, ray, first, &mut IntersectOne { args }) }
+    }
+}
+
+/// [`intersect_callback`] for packets of N = 2..=16 lanes (8 with the width a constant, so
+/// the SOA indexing and the lane loops fold away); each under its own `wrap`.
+///
+/// # Safety
+/// `a` is `*args`, valid arguments from Embree, and `data` its geometryUserPtr.
+#[inline(never)]
+unsafe fn intersect_packet_callback<T: UserPrimitives>(
+    args: *const sys::RTCIntersectFunctionNArguments,
+    a: &sys::RTCIntersectFunctionNArguments,
+    data: &UserData<T>,
+) {
     let prims = &data.prims;
     match a.N as usize {
         // SAFETY: `a` is the argument block Embree passed, with its own N.
-        1 => panic::wrap(&data.panics, "intersect", || unsafe { intersect_lanes::<T>(args, a, prims, 1) }),
-        // SAFETY: as above.
         8 => panic::wrap(&data.panics, "intersect", || unsafe { intersect_lanes::<T>(args, a, prims, 8) }),
         n @ 2..=MAX_N => {
             // SAFETY: as above.
@@ -539,14 +691,14 @@ unsafe extern "C" fn intersect_callback<T: UserPrimitives>(args: *const sys::RTC
     };
 }
 
-/// Offer each active lane's candidate hits on `prim`, nearest first, to `offer`, which says
-/// whether the filters accepted each. A primitive can be crossed several times: after a
-/// rejected candidate, look beyond it (at most [`MAX_CANDIDATES`]: 4 roots for each of a
+/// Offer each active lane's candidate hits on `prim` in a packet, nearest first, to `offer`,
+/// which says whether the filters accepted each. A primitive can be crossed several times:
+/// after a rejected candidate, look beyond it (at most [`MAX_CANDIDATES`]: 4 roots for each of a
 /// cluster's 8 patches, the resultant of a line and a quadratic patch being a quartic). A
 /// rejection restores the lane's `tfar`, so its value read here holds. `origin(lane)` is where
-/// the lane's ray starts on this geometry, if known (occlusion rays of [`CommittedScene::occluded1_from`]).
-/// One lane is tested alone; a packet's first candidates come from
-/// [`UserPrimitives::intersect_packet`], all its lanes (and their origins) at once.
+/// the lane's ray starts on this geometry, if known (occlusion rays of [`CommittedScene::occluded8_rays_from`]).
+/// The first candidates come from [`UserPrimitives::intersect_packet`], all the lanes (and their
+/// origins) at once; one lane has a route of its own ([`intersect_one`], [`occluded_one`]).
 ///
 /// # Safety
 /// `ray` must be an RTCRayN (or the ray part of an RTCRayHitN) of width `valid.len()`, and
@@ -561,52 +713,39 @@ unsafe fn for_each_candidate<T: UserPrimitives>(
     origin: impl Fn(usize) -> Option<OriginPrim>,
     offer: &mut impl Offer,
 ) {
-    if valid.len() == 1 {
-        if valid[0] == -1 {
-            // SAFETY: lane 0 < n = 1 of an RTCRayN (this function's contract).
-            let r = unsafe { read_ray(ray, 0) };
-            let from = origin(0);
-            let first = data.intersect_from(prim, from, r.org, r.dir, r.tnear, r.tfar);
-            // SAFETY: lane 0 < n (contract).
-            unsafe { offer_candidates(data, prim, 0, from, &r, first, offer) };
-        }
-        return;
-    }
     let mut rays = NO_RAYS;
     // SAFETY: the layout is RTCRayN of width valid.len() (this function's contract).
-    unsafe { read_packet(ray, valid, &mut rays) };
-    for lane in 0..rays.n {
-        if rays.active[lane] {
-            rays.origin[lane] = origin(lane);
-        }
-    }
+    unsafe { read_packet(ray, valid, origin, &mut rays) };
     let mut hits = [None; MAX_N];
     data.intersect_packet(prim, &rays, &mut hits);
     for lane in 0..rays.n {
         let (true, Some(first)) = (rays.active[lane], hits[lane]) else { continue };
-        let (org, dir, tnear, tfar) = rays.ray(lane);
-        let r = LaneRay { org, dir, tnear, tfar };
         // SAFETY: lane < n (contract).
-        unsafe { offer_candidates(data, prim, lane, rays.origin[lane], &r, Some(first), offer) };
+        unsafe { offer_hits(data, prim, lane, rays.origin[lane], ray, first, offer) };
     }
 }
 
 /// Offer `first`, lane `lane`'s nearest hit on `prim`, then (while the filters reject) the
-/// next ones beyond it, as [`for_each_candidate`] describes.
+/// next ones beyond it, as [`for_each_candidate`] describes. A function of its own, entered only
+/// by a lane with a hit (most calls find none), which reads the lane's ray again from `ray`
+/// (unchanged since the first test), so that the caller need not keep it across that test.
 ///
 /// # Safety
-/// As for [`Offer::offer`].
-#[inline(always)]
-unsafe fn offer_candidates<T: UserPrimitives>(
+/// `ray` must be an RTCRayN (or the ray part of an RTCRayHitN) with `lane` below its width,
+/// and `offer` made for that packet.
+#[inline(never)]
+unsafe fn offer_hits<T: UserPrimitives>(
     data: &T,
     prim: u32,
     lane: usize,
     from: Option<OriginPrim>,
-    r: &LaneRay,
-    first: Option<PrimHit>,
+    ray: Soa,
+    first: PrimHit,
     offer: &mut impl Offer,
 ) {
-    let (mut next, mut tnear) = (first, r.tnear);
+    // SAFETY: lane is below the width of `ray` (this function's contract).
+    let r = &unsafe { read_ray(ray, lane) };
+    let (mut next, mut tnear) = (Some(first), r.tnear);
     for _ in 0..MAX_CANDIDATES {
         let Some(h) = next else { break };
         // Embree takes the hit's t as the ray's new tfar: one outside the interval asked for
@@ -626,13 +765,19 @@ unsafe fn offer_candidates<T: UserPrimitives>(
 }
 
 /// The rays of a packet of width `valid.len()` (at most [`MAX_N`]), the lanes `valid` marks
-/// active (Embree's `-1`), the other lanes' fields zero, written to `p` (zeroed by the caller).
+/// active (Embree's `-1`) with their origins `origin(lane)`, the other lanes' fields zero,
+/// written to `p` (zeroed by the caller).
 ///
 /// # Safety
 /// `ray` must be an RTCRayN of width `valid.len()`.
 #[inline(always)]
 #[allow(clippy::needless_range_loop)] // lane loops index several arrays by the lane
-unsafe fn read_packet(ray: Soa, valid: &[i32], p: &mut PacketRays) {
+unsafe fn read_packet(
+    ray: Soa,
+    valid: &[i32],
+    origin: impl Fn(usize) -> Option<OriginPrim>,
+    p: &mut PacketRays,
+) {
     let n = valid.len().min(MAX_N);
     p.n = n;
     for lane in 0..n {
@@ -655,6 +800,11 @@ unsafe fn read_packet(ray: Soa, valid: &[i32], p: &mut PacketRays) {
             // SAFETY: lane < n and the layout is RTCRayN of width n (this function's contract).
             let x = unsafe { ray.f(field, lane) };
             out[lane] = if p.active[lane] { x } else { 0.0 };
+        }
+    }
+    for lane in 0..n {
+        if p.active[lane] {
+            p.origin[lane] = origin(lane);
         }
     }
 }
@@ -699,12 +849,58 @@ unsafe extern "C" fn occluded_callback<T: UserPrimitives>(args: *const sys::RTCO
     let a = unsafe { &*args };
     // SAFETY: as above.
     let data = unsafe { &*(a.geometryUserPtr as *const UserData<T>) };
-    // One lane and eight get their own copies, as in `intersect_callback`.
+    // One lane here, packets apart, as in `intersect_callback`.
+    if a.N == 1 {
+        // SAFETY: `a` is the argument block Embree passed, with N = 1.
+        panic::wrap(&data.panics, "occluded", || unsafe { occluded_one::<T>(args, a, &data.prims) });
+    } else {
+        // SAFETY: as above, with N != 1.
+        unsafe { occluded_packet_callback::<T>(args, a, data) }
+    }
+}
+
+/// The body of [`occluded_callback`] for one lane.
+///
+/// # Safety
+/// `a` is `*args`, valid arguments from Embree with `a.N == 1`, and `data` the primitives its
+/// geometryUserPtr holds.
+#[inline(always)]
+unsafe fn occluded_one<T: UserPrimitives>(
+    args: *const sys::RTCOccludedFunctionNArguments,
+    a: &sys::RTCOccludedFunctionNArguments,
+    data: &T,
+) {
+    // SAFETY: `valid` points to N = 1 int (RTCOccludedFunctionNArguments contract).
+    if unsafe { a.valid.read() } != -1 {
+        return;
+    }
+    let ray = Soa { base: a.ray as *mut u32, n: 1 };
+    // SAFETY: lane 0 of an RTCRayN of width 1; `a.context` is the query's context.
+    let (r, id) = unsafe { (read_ray(ray, 0), ray.u(RAY_ID, 0)) };
+    // Only a ray that names an origin entry looks for the registration.
+    let head = if id == 0 { None } else { registered(a.context) };
+    // SAFETY: `head` is registered for the running query, `a.context` Embree's pointer to its
+    // context.
+    let from = head.and_then(|head| unsafe { origin_in(head, a.context, a.geomID, id) });
+    if let Some(first) = data.intersect_from(a.primID, from, r.org, r.dir, r.tnear, r.tfar) {
+        // SAFETY: lane 0 < 1, and the offer is made for the packet Embree passed.
+        unsafe { offer_hits(data, a.primID, 0, from, ray, first, &mut OccludedOne { args }) }
+    }
+}
+
+/// [`occluded_callback`] for packets, as [`intersect_packet_callback`].
+///
+/// # Safety
+/// `a` is `*args`, valid arguments from Embree, and `data` its geometryUserPtr.
+#[inline(never)]
+unsafe fn occluded_packet_callback<T: UserPrimitives>(
+    args: *const sys::RTCOccludedFunctionNArguments,
+    a: &sys::RTCOccludedFunctionNArguments,
+    data: &UserData<T>,
+) {
     let prims = &data.prims;
     match a.N as usize {
         // SAFETY: `a` is the argument block Embree passed, with its own N.
-        1 => panic::wrap(&data.panics, "occluded", || unsafe { occluded_lanes::<T>(args, a, prims, 1) }),
-        // SAFETY: as above.
         8 => panic::wrap(&data.panics, "occluded", || unsafe { occluded_lanes::<T>(args, a, prims, 8) }),
         n @ 2..=MAX_N => {
             // SAFETY: as above.
@@ -729,11 +925,12 @@ unsafe fn occluded_lanes<T: UserPrimitives>(
     // SAFETY: `valid` points to N ints (RTCOccludedFunctionNArguments contract).
     let valid = unsafe { std::slice::from_raw_parts(a.valid, n) };
     let ray = Soa { base: a.ray as *mut u32, n };
-    let origins = origin_context(a.context);
+    // The registration once for the packet, each lane's entry by its id.
+    let head = registered(a.context);
     let origin = |lane: usize| {
-        // SAFETY: lane < n in an RTCRayN of width n; `origins` and `a.context` are live for the
-        // query (see `origin_context`).
-        unsafe { origin_of(origins?, a.context, a.geomID, ray.u(RAY_ID, lane)) }
+        // SAFETY: lane < n in an RTCRayN of width n; `head` is registered for the running query
+        // and `a.context` is Embree's pointer to its context.
+        unsafe { origin_in(head?, a.context, a.geomID, ray.u(RAY_ID, lane)) }
     };
     let mut offer = OccludedOffer { args, ray, cand: Candidates::new(n) };
     // SAFETY: `ray` is the ray part of the packet Embree passed, of width n, and the offer is
@@ -747,28 +944,40 @@ unsafe fn occluded_lanes<T: UserPrimitives>(
 // context can be extended", rtcInitRayQueryContext docs). A ray names its entry by its `id`
 // (entry k + 1; 0: none), which Embree carries through traversal, instancing and packet splits
 // unchanged. A callback reads past the raw context only when the context is the one this thread
-// registered for the query it runs under.
+// registered for the query it runs under, and only for a ray that names an entry.
+
+/// What every [`OriginContext`] starts with: the context Embree sees (first, so a pointer to it
+/// is a pointer to the whole) and how many origins follow.
+#[repr(C)]
+struct OriginHead {
+    /// What Embree sees.
+    base: QueryContext,
+    /// The number of origins that follow the head.
+    len: usize,
+}
 
 /// A query context followed by the origins of the query's `N` rays.
 #[repr(C)]
 struct OriginContext<const N: usize> {
-    /// What Embree sees (first, so a pointer to it is a pointer to the whole).
-    base: QueryContext,
+    head: OriginHead,
     /// Entry `k` for the rays with `id == k + 1`.
     origins: [RayOrigin; N],
 }
 
-/// The registered query context (as Embree sees it) and its origins.
-type Registration = (*const sys::RTCRayQueryContext, *const [RayOrigin]);
+// The origins start right after the head whatever N is (repr(C), and the head's size is a
+// multiple of a RayOrigin's alignment): a callback finds them from the head alone.
+const _: () = assert!(std::mem::offset_of!(OriginContext<1>, origins) == std::mem::size_of::<OriginHead>());
+const _: () =
+    assert!(std::mem::offset_of!(OriginContext<PACKET8>, origins) == std::mem::size_of::<OriginHead>());
 
 thread_local! {
-    /// The [`OriginContext`] of the origin-aware query running on this thread (null: none).
-    static ORIGIN_CONTEXT: Cell<Registration> =
-        const { Cell::new((std::ptr::null(), std::ptr::slice_from_raw_parts(std::ptr::null(), 0))) };
+    /// The [`OriginContext`] of the origin-aware query running on this thread (null: none), as
+    /// a pointer to its head with the provenance of the whole context.
+    static ORIGIN_CONTEXT: Cell<*const OriginHead> = const { Cell::new(std::ptr::null()) };
 }
 
 /// Restores the thread's registered [`OriginContext`] when a query ends, by return or unwind.
-struct Registered(Registration);
+struct Registered(*const OriginHead);
 
 impl Drop for Registered {
     fn drop(&mut self) {
@@ -777,52 +986,61 @@ impl Drop for Registered {
 }
 
 impl<const N: usize> OriginContext<N> {
-    fn new() -> Self {
-        OriginContext { base: QueryContext::new(), origins: [NO_ORIGIN; N] }
+    fn new(origins: [RayOrigin; N]) -> Self {
+        OriginContext { head: OriginHead { base: QueryContext::new(), len: N }, origins }
     }
 
     /// Run the query `f(args)` with arguments whose context is `self`, registered as this
     /// thread's origin context while it runs.
+    #[inline(always)]
     fn query<R>(&mut self, coherent: bool, f: impl FnOnce(&mut OccludedArgs<'_>) -> R) -> R {
         let p: *mut Self = self;
-        // SAFETY: `p` points to `self`, borrowed exclusively for this call; the base and the
-        // origins are disjoint fields, so the context borrow Embree writes through leaves the
-        // origins to be read through `p` (origin_of).
-        let (base, origins) =
-            unsafe { (&mut (*p).base, std::ptr::addr_of!((*p).origins) as *const [RayOrigin]) };
-        let raw: *const sys::RTCRayQueryContext = base.as_raw();
+        // SAFETY: `p` points to `self`, borrowed exclusively for this call; the base is the one
+        // part Embree writes through (its instance stack), and the callbacks read the rest (the
+        // length and the origins) through `p`, registered below (origin_in).
+        let base = unsafe { &mut (*p).head.base };
         let mut args = OccludedArgs::new().flags(query_flags(coherent)).context(base);
-        let _outer = Registered(ORIGIN_CONTEXT.with(|c| c.replace((raw, origins))));
+        let _outer = Registered(ORIGIN_CONTEXT.with(|c| c.replace(p as *const OriginHead)));
         f(&mut args)
     }
 }
 
-/// The registered origins, if `context` is the registered context.
+/// The thread's registered [`OriginContext`], if `context` is it.
 #[inline(always)]
-fn origin_context(context: *const sys::RTCRayQueryContext) -> Option<*const [RayOrigin]> {
-    let (ours, origins) = ORIGIN_CONTEXT.with(Cell::get);
-    (!ours.is_null() && ours == context).then_some(origins)
+fn registered(context: *const sys::RTCRayQueryContext) -> Option<*const OriginHead> {
+    let head = ORIGIN_CONTEXT.with(Cell::get);
+    (!head.is_null() && head as *const sys::RTCRayQueryContext == context).then_some(head)
 }
 
-/// The origin of the ray with `id` when it starts on geometry `geom` at the instance level the
-/// query is at now (the context's instance stack).
+/// The origin of the ray with `id` in the registered context `head` when it starts on geometry
+/// `geom` at the instance level the query is at now (the context's instance stack): `None` for
+/// a ray that names no entry (`id == 0`, or past the origins).
 ///
 /// # Safety
-/// `origins` must be the registered origins of the running query and `context` Embree's
-/// pointer to its context.
+/// `head` must be the registered context of the running query ([`registered`]), and `context`
+/// Embree's pointer to it.
 #[inline(always)]
-unsafe fn origin_of(
-    origins: *const [RayOrigin],
+unsafe fn origin_in(
+    head: *const OriginHead,
     context: *const sys::RTCRayQueryContext,
     geom: u32,
     id: u32,
 ) -> Option<OriginPrim> {
-    let k = (id as usize).checked_sub(1).filter(|&k| k < origins.len())?;
-    // SAFETY: the origins are registered by `OriginContext::query` for the query this callback
-    // runs under and live (on its caller's stack) until it returns, k is in bounds; Embree
-    // writes only the instance stack of the base context, read through its own pointer.
-    let (o, stack) = unsafe { ((origins as *const RayOrigin).add(k).read(), (*context).instID) };
-    (o.geom_id == geom && o.inst_id == stack).then_some(OriginPrim { prim: o.prim, u: o.u, v: o.v })
+    let k = (id as usize).checked_sub(1)?;
+    // SAFETY: `head` is the registered context of the query this callback runs under, which
+    // `OriginContext::query` keeps alive (on its caller's stack) until it returns; its length
+    // and origins are read through the registered pointer (Embree writes only the base), the
+    // origins from right after the head (asserted above), entry k in bounds. The instance stack
+    // is read through Embree's own pointer to the base.
+    unsafe {
+        let len = std::ptr::addr_of!((*head).len).read();
+        if k >= len {
+            return None;
+        }
+        let o = (head.add(1) as *const RayOrigin).add(k).read();
+        let stack = (*context).instID;
+        (o.geom_id == geom && o.inst_id == stack).then_some(OriginPrim { prim: o.prim, u: o.u, v: o.v })
+    }
 }
 
 /// A ray origin that matches no geometry (a ray with `id` 0 has none anyway).
@@ -840,12 +1058,10 @@ impl CommittedScene {
     /// meet it again (Phong patches: [`crate::phong::convexity::leaves_patch`]). `None` is
     /// `occluded1`.
     pub fn occluded1_from(&self, ray: Ray, origin: Option<RayOrigin>) -> bool {
-        let mut ctx = OriginContext::<1>::new();
+        let Some(o) = origin else { return self.occluded1(ray) };
+        let mut ctx = OriginContext::<1>::new([o]);
         let mut r = ray.to_sys();
-        if let Some(o) = origin {
-            ctx.origins[0] = o;
-            r.id = 1;
-        }
+        r.id = 1;
         ctx.query(false, |args| self.occluded1_raw(&mut r, Some(args)));
         r.tfar == f32::NEG_INFINITY
     }
@@ -862,7 +1078,7 @@ impl CommittedScene {
         if active == 0 {
             return 0;
         }
-        let mut ctx = OriginContext::<PACKET8>::new();
+        let mut ctx = OriginContext::<PACKET8>::new([NO_ORIGIN; PACKET8]);
         let mut ray = rayhit8(rays).ray;
         for (k, o) in origins.iter().enumerate() {
             if let Some(o) = o {
