@@ -511,21 +511,22 @@ impl EnvSwitch {
         self.state.store(if on { 2 } else { 1 }, Ordering::SeqCst);
     }
 
-    #[inline]
+    /// One relaxed load where the state is known (every call but the first few); the
+    /// environment is read out of line.
+    #[inline(always)]
     fn on(&self) -> bool {
         match self.state.load(Ordering::Relaxed) {
-            0 => {
-                let on = std::env::var_os(self.var).is_some_and(|v| v == "1");
-                let _ = self.state.compare_exchange(
-                    0,
-                    if on { 2 } else { 1 },
-                    Ordering::SeqCst,
-                    Ordering::SeqCst,
-                );
-                self.state.load(Ordering::SeqCst) == 2
-            }
+            0 => self.read_environment(),
             s => s == 2,
         }
+    }
+
+    #[cold]
+    #[inline(never)]
+    fn read_environment(&self) -> bool {
+        let on = std::env::var_os(self.var).is_some_and(|v| v == "1");
+        let _ = self.state.compare_exchange(0, if on { 2 } else { 1 }, Ordering::SeqCst, Ordering::SeqCst);
+        self.state.load(Ordering::SeqCst) == 2
     }
 }
 
@@ -546,7 +547,7 @@ pub mod audit {
     }
 
     /// Whether the audit is on.
-    #[inline]
+    #[inline(always)]
     pub fn on() -> bool {
         SWITCH.on()
     }
