@@ -1058,10 +1058,13 @@ impl World {
     /// near the terminator; [`Terminator::LiftNg`] fades on `ng·l` alone), and only if a ray from the
     /// surface point to the lifted one meets nothing: the lift never moves an origin through
     /// another sheet of geometry.
+    ///
+    /// The lift itself ([`World::shadow_lift`]) is computed only where the fade leaves some of it.
     pub fn shadow_origin(&self, sp: &SurfacePoint, dir: Vec3, counts: &mut RayCounts) -> Vec3 {
-        if sp.lift == Vec3::ZERO {
+        if !matches!(sp.terminator, Terminator::Lift | Terminator::LiftNg) {
             return sp.offset_origin(dir);
         }
+        // Compute the fade, then the lift where the fade leaves some of it.
         let l = dir.normalize_or_zero();
         let cos_g = sp.ng.dot(l);
         let cos = if sp.terminator == Terminator::LiftNg { cos_g } else { cos_g.min(sp.n.dot(l)) };
@@ -1069,7 +1072,11 @@ impl World {
         if !(w > 0.0) || !(sp.n.dot(l) > 0.0) {
             return sp.offset_origin(dir);
         }
-        let lift = w * sp.lift;
+        let full = self.shadow_lift(sp);
+        if full == Vec3::ZERO {
+            return sp.offset_origin(dir);
+        }
+        let lift = w * full;
         counts.terminator += 1;
         if self.scene.occluded1_from(Ray::new(sp.offset_origin(lift), lift).with_range(0.0, 1.0), sp.origin) {
             return sp.offset_origin(dir);
@@ -1095,6 +1102,38 @@ impl World {
             || self.passes_own_bumps(sp, o, dir, tfar, counts)
     }
 
+    /// The shadow-ray origin lift of a Phong shading point on the side its ray came from
+    /// ([`phongrt::phong::Patch::shadow_lift`], world space) under [`Terminator::Lift`] and
+    /// [`Terminator::LiftNg`]; zero for other rules, flat surfaces and an unknown `sp.origin`.
+    /// Computed on demand: [`World::shadow_origin`] asks only near the terminator.
+    pub fn shadow_lift(&self, sp: &SurfacePoint) -> Vec3 {
+        if !matches!(sp.terminator, Terminator::Lift | Terminator::LiftNg) {
+            return Vec3::ZERO;
+        }
+        let Some((pm, o)) = self.patch_of(sp) else { return Vec3::ZERO };
+        // The side the ray came from, relative to the vertex normals.
+        let side = if sp.entering { 1.0 } else { -1.0 };
+        pm.shadow_lift(o.prim, o.u, o.v, side)
+    }
+
+    /// Within what a shadow ray from `sp` may pass the C0 bumps of its own mesh under
+    /// [`Terminator::Lift`] (from [`phongrt::phong::Patch::bump_bound`]); `None` for other rules,
+    /// flat surfaces, an unknown `sp.origin` and a bound that is not finite. Computed on demand:
+    /// only for a blocked shadow ray.
+    pub fn bump_bound(&self, sp: &SurfacePoint) -> Option<BumpBound> {
+        if sp.terminator != Terminator::Lift {
+            return None;
+        }
+        let (pm, o) = self.patch_of(sp)?;
+        pm.bump_bound(o.prim).map(|(height, reach)| BumpBound { geom: o.geom_id, height, reach })
+    }
+
+    /// The Phong patches `sp` lies on, with the hit it lies on.
+    fn patch_of(&self, sp: &SurfacePoint) -> Option<(&PhongMesh, RayOrigin)> {
+        let o = sp.origin?;
+        Some((self.objects.get(o.geom_id as usize)?.geometry.phong()?, o))
+    }
+
     /// Whether a shadow ray `(o, dir)` over `(0, tfar)` that some surface blocks is blocked only
     /// by the C0 bumps of the shading point's own mesh (see [`Terminator::Lift`]): its hits, in
     /// order, are all on the same object, within the bump bound's reach of the point and below
@@ -1108,7 +1147,7 @@ impl World {
         tfar: f32,
         counts: &mut RayCounts,
     ) -> bool {
-        let Some(b) = sp.bumps else { return false };
+        let Some(b) = self.bump_bound(sp) else { return false };
         let mut tnear = 0.0;
         for _ in 0..MAX_BUMP_HITS {
             counts.terminator += 1;
@@ -1194,16 +1233,13 @@ pub struct SurfacePoint {
     /// Whether the ray arrived from the front (the side `dp/du x dp/dv` points to).
     pub entering: bool,
     /// The terminator rule (Phong surfaces; flat ones use [`Terminator::Plain`] with no lift and
-    /// keep the classic faceted terminator).
+    /// keep the classic faceted terminator). What the rule needs of the patch, the shadow-ray
+    /// lift and the bump bound, is computed only where a shadow ray asks for it, from `origin`
+    /// ([`World::shadow_lift`], [`World::bump_bound`]).
     pub terminator: Terminator,
-    /// The shadow-ray origin lift on the side the ray came from (zero for flat surfaces and
-    /// unless the rule is [`Terminator::Lift`]).
-    pub lift: Vec3,
-    /// Within what a shadow ray may pass the C0 bumps of its own mesh ([`Terminator::Lift`]
-    /// only; `None` elsewhere).
-    pub bumps: Option<BumpBound>,
-    /// The hit the point lies on, given to the occlusion rays that leave it, so that the patch
-    /// they start on is left out where it provably cannot block them (`None`: not known).
+    /// The hit the point lies on: given to the occlusion rays that leave it, so that the patch
+    /// they start on is left out where it provably cannot block them, and where the terminator
+    /// rule finds the patch (`None`: not known, and no lift).
     pub origin: Option<RayOrigin>,
 }
 
@@ -1390,35 +1426,13 @@ impl Object {
         let ng = if entering { ng_raw } else { -ng_raw };
         // The shading normal on the same side as the geometric one.
         let n = if n_shade.dot(ng) < 0.0 { -n_shade } else { n_shade };
-        let (terminator, lift, bumps) = match &self.geometry {
-            Geometry::Phong(pm) => {
-                let lifts = matches!(terminator, Terminator::Lift | Terminator::LiftNg);
-                let lift = if lifts {
-                    // The side the ray came from, relative to the vertex normals.
-                    let side = if entering { 1.0 } else { -1.0 };
-                    pm.shadow_lift(hit.prim_id, hit.u, hit.v, side)
-                } else {
-                    Vec3::ZERO
-                };
-                let bumps = (terminator == Terminator::Lift)
-                    .then(|| pm.bump_bound(hit.prim_id))
-                    .flatten()
-                    .map(|(height, reach)| BumpBound { geom: hit.geom_id, height, reach });
-                (terminator, lift, bumps)
-            }
-            Geometry::Flat => (Terminator::Plain, Vec3::ZERO, None),
+        // Compute the terminator rule: Phong surfaces only (the lift and the bump bound it needs
+        // are computed when a shadow ray asks, see `World::shadow_lift`).
+        let terminator = match &self.geometry {
+            Geometry::Phong(_) => terminator,
+            Geometry::Flat => Terminator::Plain,
         };
-        SurfacePoint {
-            p,
-            p_error,
-            ng,
-            n,
-            entering,
-            terminator,
-            lift,
-            bumps,
-            origin: Some(RayOrigin::of_hit(hit)),
-        }
+        SurfacePoint { p, p_error, ng, n, entering, terminator, origin: Some(RayOrigin::of_hit(hit)) }
     }
 
     /// `(1-u-v) p0 + u p1 + v p2` with its rounding error bound (pbrt-v4's barycentric bound).
