@@ -1138,7 +1138,19 @@ impl World {
     /// by the C0 bumps of the shading point's own mesh (see [`Terminator::Lift`]): its hits, in
     /// order, are all on the same object, within the bump bound's reach of the point and below
     /// its height over the shading plane, and at most [`MAX_BUMP_HITS`] of them. Closest-hit
-    /// rays, traced only for a blocked shadow ray.
+    /// rays, traced only for a blocked shadow ray, and only as far as a hit can be within reach.
+    ///
+    /// The answer is that of the plain walk over the whole ray (a closest-hit query over
+    /// `(tnear, tfar)`, its hit checked, `tnear` moved just past it), with each query cut at `cap`
+    /// ([`bump_reach_cap`]): no hit at `t >= cap` passes the reach test as it is computed.
+    /// Each query answers the nearest hit of its interval (Embree's closest hit, each patch test
+    /// the nearest root in the interval it is given), so a query over `(tnear, cap)` finds the
+    /// plain walk's hit wherever that lies below `cap`, and nothing where it lies at or past
+    /// `cap`, where the plain walk stops with `false`. So where the cut query finds a hit, both
+    /// walks check the same hit; where it finds none, the plain walk's next hit (if any) is out
+    /// of reach: on the first query there is one (the ray is blocked, and the blocking query
+    /// leaves out only the origin's patch where it proves no hit), so `false`; after a passed
+    /// bump, `false` exactly if anything is left in `(tnear, tfar)` (one occlusion query).
     fn passes_own_bumps(
         &self,
         sp: &SurfacePoint,
@@ -1148,11 +1160,22 @@ impl World {
         counts: &mut RayCounts,
     ) -> bool {
         let Some(b) = self.bump_bound(sp) else { return false };
+        let cap = bump_reach_cap(sp.p, b.reach, o, dir);
+        let capped = cap < tfar;
+        let end = if capped { cap } else { tfar };
         let mut tnear = 0.0;
-        for _ in 0..MAX_BUMP_HITS {
+        for k in 0..MAX_BUMP_HITS {
             counts.terminator += 1;
-            let Some(hit) = self.scene.intersect1(Ray::new(o, dir).with_range(tnear, tfar)) else {
-                return true;
+            let Some(hit) = self.scene.intersect1(Ray::new(o, dir).with_range(tnear, end)) else {
+                // Compute whether anything is left past the cap (out of reach).
+                if !capped {
+                    return true;
+                }
+                if k == 0 {
+                    return false;
+                }
+                counts.terminator += 1;
+                return !self.scene.occluded1(Ray::new(o, dir).with_range(tnear, tfar));
             };
             let d = o + hit.t * dir - sp.p;
             if hit.geom_id != b.geom || d.length() > b.reach || d.dot(sp.n) > b.height {
@@ -1262,6 +1285,32 @@ pub const LIFT_CUTOFF: f32 = 0.1;
 
 /// The most hits on its own mesh's bumps a shadow ray passes (see [`Terminator::Lift`]).
 pub const MAX_BUMP_HITS: usize = 4;
+
+/// A ray parameter `cap` past which no point of the ray `(o, dir)` passes the bump pass's reach
+/// test: for every `t >= cap`, `(o + t * dir - p).length() > reach` as f32 computes it (rounded
+/// up to f32; infinite or NaN where an input is not finite or `dir` is zero, and then no cap).
+///
+/// By the triangle inequality `|o + t dir - p| >= t |dir| - |o - p|`. The f32 evaluation of
+/// `o + t * dir - p` is off by at most `γ3 (|o|₁ + t |dir|₁ + |p|₁)` (three roundings per
+/// component, summed over them; `|dir|₁ <= √3 |dir|`), and its length by a factor
+/// `1 - γ3` at most (a sum of three squares, then the square root). With `ε = 1e-5`, more than
+/// `√3 γ3` (3.1e-7), the computed length is above `reach` for
+/// `t >= ((1 + ε) reach + |o - p| + ε (|o|₁ + |p|₁)) / ((1 - ε) |dir|)`, evaluated in f64 (its
+/// own rounding, 1e-15 relative, lies within the final factor `1 + ε`).
+fn bump_reach_cap(p: Vec3, reach: f32, o: Vec3, dir: Vec3) -> f32 {
+    const EPS: f64 = 1e-5;
+    let (p, o, dir) = (p.as_dvec3(), o.as_dvec3(), dir.as_dvec3());
+    let far =
+        (1.0 + EPS) * reach as f64 + (o - p).length() + EPS * (o.abs().element_sum() + p.abs().element_sum());
+    let cap = (1.0 + EPS) * far / ((1.0 - EPS) * dir.length());
+    // Round up to f32.
+    let c = cap as f32;
+    if (c as f64) < cap {
+        c.next_up()
+    } else {
+        c
+    }
+}
 
 impl SurfacePoint {
     /// The light a direction `l` (unit) brings in, as a factor of `n·l`: `max(0, n·l)` except
