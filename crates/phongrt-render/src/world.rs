@@ -1142,7 +1142,7 @@ impl World {
     ///
     /// The answer is that of the plain walk over the whole ray (a closest-hit query over
     /// `(tnear, tfar)`, its hit checked, `tnear` moved just past it), with each query cut at `cap`
-    /// ([`bump_reach_cap`]): no hit at `t >= cap` passes the reach test as it is computed.
+    /// ([`bump_cap`]): no hit at `t >= cap` passes the reach or the height test as they are computed.
     /// Each query answers the nearest hit of its interval (Embree's closest hit, each patch test
     /// the nearest root in the interval it is given), so a query over `(tnear, cap)` finds the
     /// plain walk's hit wherever that lies below `cap`, and nothing where it lies at or past
@@ -1160,7 +1160,7 @@ impl World {
         counts: &mut RayCounts,
     ) -> bool {
         let Some(b) = self.bump_bound(sp) else { return false };
-        let cap = bump_reach_cap(sp.p, b.reach, o, dir);
+        let cap = bump_cap(sp.p, sp.n, &b, o, dir);
         let capped = cap < tfar;
         let end = if capped { cap } else { tfar };
         let mut tnear = 0.0;
@@ -1286,23 +1286,37 @@ pub const LIFT_CUTOFF: f32 = 0.1;
 /// The most hits on its own mesh's bumps a shadow ray passes (see [`Terminator::Lift`]).
 pub const MAX_BUMP_HITS: usize = 4;
 
-/// A ray parameter `cap` past which no point of the ray `(o, dir)` passes the bump pass's reach
-/// test: for every `t >= cap`, `(o + t * dir - p).length() > reach` as f32 computes it (rounded
-/// up to f32; infinite or NaN where an input is not finite or `dir` is zero, and then no cap).
+/// A ray parameter `cap` past which no point of the ray `(o, dir)` passes the bump pass's tests
+/// of `b` at the shading point `p` with shading normal `n`: for every `t >= cap`, with
+/// `d = o + t * dir - p` as f32 computes it, `d.length() > b.reach` or `d.dot(n) > b.height`
+/// (rounded up to f32; infinite or NaN where an input is not finite or `dir` is zero, and then
+/// no cap). The smaller of two caps, evaluated in f64 (its own rounding, 1e-15 relative, lies
+/// within the final factors `1 + ε`), with `ε = 1e-5` (more than `2 √3 γ3`, 6.2e-7):
 ///
-/// By the triangle inequality `|o + t dir - p| >= t |dir| - |o - p|`. The f32 evaluation of
-/// `o + t * dir - p` is off by at most `γ3 (|o|₁ + t |dir|₁ + |p|₁)` (three roundings per
-/// component, summed over them; `|dir|₁ <= √3 |dir|`), and its length by a factor
-/// `1 - γ3` at most (a sum of three squares, then the square root). With `ε = 1e-5`, more than
-/// `√3 γ3` (3.1e-7), the computed length is above `reach` for
-/// `t >= ((1 + ε) reach + |o - p| + ε (|o|₁ + |p|₁)) / ((1 - ε) |dir|)`, evaluated in f64 (its
-/// own rounding, 1e-15 relative, lies within the final factor `1 + ε`).
-fn bump_reach_cap(p: Vec3, reach: f32, o: Vec3, dir: Vec3) -> f32 {
+/// - Reach: `|o + t dir - p| >= t |dir| - |o - p|` (the triangle inequality). The f32
+///   evaluation of `d` is off by at most `γ3 (|o|₁ + t |dir|₁ + |p|₁)` (three roundings per
+///   component, summed over them; `|dir|₁ <= √3 |dir|`), and its length by a factor `1 - γ3` at
+///   most (a sum of three squares, then the square root). So the computed length is above
+///   `reach` for `t >= ((1 + ε) reach + |o - p| + ε (|o|₁ + |p|₁)) / ((1 - ε) |dir|)`.
+/// - Height, where the ray rises over the shading plane (`dir·n > ε |dir|₁`): exactly,
+///   `d·n = (o - p)·n + t dir·n`; the computed `d` is off as above, and the dot product adds
+///   `γ3 |d|₁ |n|∞`, so (`|n|∞ <= 1` to rounding) the computed `d.dot(n)` is off by less than
+///   `(ε / 2) (|o|₁ + |p|₁ + t |dir|₁)`, and above `height` for
+///   `t >= (height - (o - p)·n + ε (|o|₁ + |p|₁)) / (dir·n - ε |dir|₁)`.
+fn bump_cap(p: Vec3, n: Vec3, b: &BumpBound, o: Vec3, dir: Vec3) -> f32 {
     const EPS: f64 = 1e-5;
-    let (p, o, dir) = (p.as_dvec3(), o.as_dvec3(), dir.as_dvec3());
-    let far =
-        (1.0 + EPS) * reach as f64 + (o - p).length() + EPS * (o.abs().element_sum() + p.abs().element_sum());
-    let cap = (1.0 + EPS) * far / ((1.0 - EPS) * dir.length());
+    let (p, n, o, dir) = (p.as_dvec3(), n.as_dvec3(), o.as_dvec3(), dir.as_dvec3());
+    let size = o.abs().element_sum() + p.abs().element_sum();
+    // Compute the reach cap.
+    let far = (1.0 + EPS) * b.reach as f64 + (o - p).length() + EPS * size;
+    let mut cap = (1.0 + EPS) * far / ((1.0 - EPS) * dir.length());
+    // Compute the height cap, where the ray rises.
+    let rise = dir.dot(n) - EPS * dir.abs().element_sum();
+    if rise > 0.0 {
+        let over = b.height as f64 - (o - p).dot(n) + EPS * size;
+        let high = (1.0 + EPS) * over.max(0.0) / rise;
+        cap = cap.min(high);
+    }
     // Round up to f32.
     let c = cap as f32;
     if (c as f64) < cap {
