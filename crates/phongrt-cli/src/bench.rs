@@ -351,8 +351,6 @@ pub fn shadow_ray(ray: &Ray, h: &phongrt::embree::Hit, light: Vec3) -> Option<(R
         n,
         entering: true,
         terminator: phongrt_render::Terminator::Plain,
-        lift: Vec3::ZERO,
-        bumps: None,
         origin: None,
     };
     Some((Ray::new(sp.offset_origin(light), light), cos))

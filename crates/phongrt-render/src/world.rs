@@ -1058,10 +1058,13 @@ impl World {
     /// near the terminator; [`Terminator::LiftNg`] fades on `ng·l` alone), and only if a ray from the
     /// surface point to the lifted one meets nothing: the lift never moves an origin through
     /// another sheet of geometry.
+    ///
+    /// The lift itself ([`World::shadow_lift`]) is computed only where the fade leaves some of it.
     pub fn shadow_origin(&self, sp: &SurfacePoint, dir: Vec3, counts: &mut RayCounts) -> Vec3 {
-        if sp.lift == Vec3::ZERO {
+        if !matches!(sp.terminator, Terminator::Lift | Terminator::LiftNg) {
             return sp.offset_origin(dir);
         }
+        // Compute the fade, then the lift where the fade leaves some of it.
         let l = dir.normalize_or_zero();
         let cos_g = sp.ng.dot(l);
         let cos = if sp.terminator == Terminator::LiftNg { cos_g } else { cos_g.min(sp.n.dot(l)) };
@@ -1069,7 +1072,11 @@ impl World {
         if !(w > 0.0) || !(sp.n.dot(l) > 0.0) {
             return sp.offset_origin(dir);
         }
-        let lift = w * sp.lift;
+        let full = self.shadow_lift(sp);
+        if full == Vec3::ZERO {
+            return sp.offset_origin(dir);
+        }
+        let lift = w * full;
         counts.terminator += 1;
         if self.scene.occluded1_from(Ray::new(sp.offset_origin(lift), lift).with_range(0.0, 1.0), sp.origin) {
             return sp.offset_origin(dir);
@@ -1095,11 +1102,55 @@ impl World {
             || self.passes_own_bumps(sp, o, dir, tfar, counts)
     }
 
+    /// The shadow-ray origin lift of a Phong shading point on the side its ray came from
+    /// ([`phongrt::phong::Patch::shadow_lift`], world space) under [`Terminator::Lift`] and
+    /// [`Terminator::LiftNg`]; zero for other rules, flat surfaces and an unknown `sp.origin`.
+    /// Computed on demand: [`World::shadow_origin`] asks only near the terminator.
+    pub fn shadow_lift(&self, sp: &SurfacePoint) -> Vec3 {
+        if !matches!(sp.terminator, Terminator::Lift | Terminator::LiftNg) {
+            return Vec3::ZERO;
+        }
+        let Some((pm, o)) = self.patch_of(sp) else { return Vec3::ZERO };
+        // The side the ray came from, relative to the vertex normals.
+        let side = if sp.entering { 1.0 } else { -1.0 };
+        pm.shadow_lift(o.prim, o.u, o.v, side)
+    }
+
+    /// Within what a shadow ray from `sp` may pass the C0 bumps of its own mesh under
+    /// [`Terminator::Lift`] (from [`phongrt::phong::Patch::bump_bound`]); `None` for other rules,
+    /// flat surfaces, an unknown `sp.origin` and a bound that is not finite. Computed on demand:
+    /// only for a blocked shadow ray.
+    pub fn bump_bound(&self, sp: &SurfacePoint) -> Option<BumpBound> {
+        if sp.terminator != Terminator::Lift {
+            return None;
+        }
+        let (pm, o) = self.patch_of(sp)?;
+        pm.bump_bound(o.prim).map(|(height, reach)| BumpBound { geom: o.geom_id, height, reach })
+    }
+
+    /// The Phong patches `sp` lies on, with the hit it lies on.
+    fn patch_of(&self, sp: &SurfacePoint) -> Option<(&PhongMesh, RayOrigin)> {
+        let o = sp.origin?;
+        Some((self.objects.get(o.geom_id as usize)?.geometry.phong()?, o))
+    }
+
     /// Whether a shadow ray `(o, dir)` over `(0, tfar)` that some surface blocks is blocked only
     /// by the C0 bumps of the shading point's own mesh (see [`Terminator::Lift`]): its hits, in
     /// order, are all on the same object, within the bump bound's reach of the point and below
     /// its height over the shading plane, and at most [`MAX_BUMP_HITS`] of them. Closest-hit
-    /// rays, traced only for a blocked shadow ray.
+    /// rays, traced only for a blocked shadow ray, and only as far as a hit can be within reach.
+    ///
+    /// The answer is that of the plain walk over the whole ray (a closest-hit query over
+    /// `(tnear, tfar)`, its hit checked, `tnear` moved just past it), with each query cut at `cap`
+    /// ([`bump_cap`]): no hit at `t >= cap` passes the reach or the height test as they are computed.
+    /// Each query answers the nearest hit of its interval (Embree's closest hit, each patch test
+    /// the nearest root in the interval it is given), so a query over `(tnear, cap)` finds the
+    /// plain walk's hit wherever that lies below `cap`, and nothing where it lies at or past
+    /// `cap`, where the plain walk stops with `false`. So where the cut query finds a hit, both
+    /// walks check the same hit; where it finds none, the plain walk's next hit (if any) is out
+    /// of reach: on the first query there is one (the ray is blocked, and the blocking query
+    /// leaves out only the origin's patch where it proves no hit), so `false`; after a passed
+    /// bump, `false` exactly if anything is left in `(tnear, tfar)` (one occlusion query).
     fn passes_own_bumps(
         &self,
         sp: &SurfacePoint,
@@ -1108,12 +1159,23 @@ impl World {
         tfar: f32,
         counts: &mut RayCounts,
     ) -> bool {
-        let Some(b) = sp.bumps else { return false };
+        let Some(b) = self.bump_bound(sp) else { return false };
+        let cap = bump_cap(sp.p, sp.n, &b, o, dir);
+        let capped = cap < tfar;
+        let end = if capped { cap } else { tfar };
         let mut tnear = 0.0;
-        for _ in 0..MAX_BUMP_HITS {
+        for k in 0..MAX_BUMP_HITS {
             counts.terminator += 1;
-            let Some(hit) = self.scene.intersect1(Ray::new(o, dir).with_range(tnear, tfar)) else {
-                return true;
+            let Some(hit) = self.scene.intersect1(Ray::new(o, dir).with_range(tnear, end)) else {
+                // Compute whether anything is left past the cap (out of reach).
+                if !capped {
+                    return true;
+                }
+                if k == 0 {
+                    return false;
+                }
+                counts.terminator += 1;
+                return !self.scene.occluded1(Ray::new(o, dir).with_range(tnear, tfar));
             };
             let d = o + hit.t * dir - sp.p;
             if hit.geom_id != b.geom || d.length() > b.reach || d.dot(sp.n) > b.height {
@@ -1194,16 +1256,13 @@ pub struct SurfacePoint {
     /// Whether the ray arrived from the front (the side `dp/du x dp/dv` points to).
     pub entering: bool,
     /// The terminator rule (Phong surfaces; flat ones use [`Terminator::Plain`] with no lift and
-    /// keep the classic faceted terminator).
+    /// keep the classic faceted terminator). What the rule needs of the patch, the shadow-ray
+    /// lift and the bump bound, is computed only where a shadow ray asks for it, from `origin`
+    /// ([`World::shadow_lift`], [`World::bump_bound`]).
     pub terminator: Terminator,
-    /// The shadow-ray origin lift on the side the ray came from (zero for flat surfaces and
-    /// unless the rule is [`Terminator::Lift`]).
-    pub lift: Vec3,
-    /// Within what a shadow ray may pass the C0 bumps of its own mesh ([`Terminator::Lift`]
-    /// only; `None` elsewhere).
-    pub bumps: Option<BumpBound>,
-    /// The hit the point lies on, given to the occlusion rays that leave it, so that the patch
-    /// they start on is left out where it provably cannot block them (`None`: not known).
+    /// The hit the point lies on: given to the occlusion rays that leave it, so that the patch
+    /// they start on is left out where it provably cannot block them, and where the terminator
+    /// rule finds the patch (`None`: not known, and no lift).
     pub origin: Option<RayOrigin>,
 }
 
@@ -1226,6 +1285,46 @@ pub const LIFT_CUTOFF: f32 = 0.1;
 
 /// The most hits on its own mesh's bumps a shadow ray passes (see [`Terminator::Lift`]).
 pub const MAX_BUMP_HITS: usize = 4;
+
+/// A ray parameter `cap` past which no point of the ray `(o, dir)` passes the bump pass's tests
+/// of `b` at the shading point `p` with shading normal `n`: for every `t >= cap`, with
+/// `d = o + t * dir - p` as f32 computes it, `d.length() > b.reach` or `d.dot(n) > b.height`
+/// (rounded up to f32; infinite or NaN where an input is not finite or `dir` is zero, and then
+/// no cap). The smaller of two caps, evaluated in f64 (its own rounding, 1e-15 relative, lies
+/// within the final factors `1 + ε`), with `ε = 1e-5` (more than `2 √3 γ3`, 6.2e-7):
+///
+/// - Reach: `|o + t dir - p| >= t |dir| - |o - p|` (the triangle inequality). The f32
+///   evaluation of `d` is off by at most `γ3 (|o|₁ + t |dir|₁ + |p|₁)` (three roundings per
+///   component, summed over them; `|dir|₁ <= √3 |dir|`), and its length by a factor `1 - γ3` at
+///   most (a sum of three squares, then the square root). So the computed length is above
+///   `reach` for `t >= ((1 + ε) reach + |o - p| + ε (|o|₁ + |p|₁)) / ((1 - ε) |dir|)`.
+/// - Height, where the ray rises over the shading plane (`dir·n > ε |dir|₁`): exactly,
+///   `d·n = (o - p)·n + t dir·n`; the computed `d` is off as above, and the dot product adds
+///   `γ3 |d|₁ |n|∞`, so (`|n|∞ <= 1` to rounding) the computed `d.dot(n)` is off by less than
+///   `(ε / 2) (|o|₁ + |p|₁ + t |dir|₁)`, and above `height` for
+///   `t >= (height - (o - p)·n + ε (|o|₁ + |p|₁)) / (dir·n - ε |dir|₁)`.
+fn bump_cap(p: Vec3, n: Vec3, b: &BumpBound, o: Vec3, dir: Vec3) -> f32 {
+    const EPS: f64 = 1e-5;
+    let (p, n, o, dir) = (p.as_dvec3(), n.as_dvec3(), o.as_dvec3(), dir.as_dvec3());
+    let size = o.abs().element_sum() + p.abs().element_sum();
+    // Compute the reach cap.
+    let far = (1.0 + EPS) * b.reach as f64 + (o - p).length() + EPS * size;
+    let mut cap = (1.0 + EPS) * far / ((1.0 - EPS) * dir.length());
+    // Compute the height cap, where the ray rises.
+    let rise = dir.dot(n) - EPS * dir.abs().element_sum();
+    if rise > 0.0 {
+        let over = b.height as f64 - (o - p).dot(n) + EPS * size;
+        let high = (1.0 + EPS) * over.max(0.0) / rise;
+        cap = cap.min(high);
+    }
+    // Round up to f32.
+    let c = cap as f32;
+    if (c as f64) < cap {
+        c.next_up()
+    } else {
+        c
+    }
+}
 
 impl SurfacePoint {
     /// The light a direction `l` (unit) brings in, as a factor of `n·l`: `max(0, n·l)` except
@@ -1390,35 +1489,13 @@ impl Object {
         let ng = if entering { ng_raw } else { -ng_raw };
         // The shading normal on the same side as the geometric one.
         let n = if n_shade.dot(ng) < 0.0 { -n_shade } else { n_shade };
-        let (terminator, lift, bumps) = match &self.geometry {
-            Geometry::Phong(pm) => {
-                let lifts = matches!(terminator, Terminator::Lift | Terminator::LiftNg);
-                let lift = if lifts {
-                    // The side the ray came from, relative to the vertex normals.
-                    let side = if entering { 1.0 } else { -1.0 };
-                    pm.shadow_lift(hit.prim_id, hit.u, hit.v, side)
-                } else {
-                    Vec3::ZERO
-                };
-                let bumps = (terminator == Terminator::Lift)
-                    .then(|| pm.bump_bound(hit.prim_id))
-                    .flatten()
-                    .map(|(height, reach)| BumpBound { geom: hit.geom_id, height, reach });
-                (terminator, lift, bumps)
-            }
-            Geometry::Flat => (Terminator::Plain, Vec3::ZERO, None),
+        // Compute the terminator rule: Phong surfaces only (the lift and the bump bound it needs
+        // are computed when a shadow ray asks, see `World::shadow_lift`).
+        let terminator = match &self.geometry {
+            Geometry::Phong(_) => terminator,
+            Geometry::Flat => Terminator::Plain,
         };
-        SurfacePoint {
-            p,
-            p_error,
-            ng,
-            n,
-            entering,
-            terminator,
-            lift,
-            bumps,
-            origin: Some(RayOrigin::of_hit(hit)),
-        }
+        SurfacePoint { p, p_error, ng, n, entering, terminator, origin: Some(RayOrigin::of_hit(hit)) }
     }
 
     /// `(1-u-v) p0 + u p1 + v p2` with its rounding error bound (pbrt-v4's barycentric bound).

@@ -187,7 +187,8 @@ fn lift_is_taken_on_the_side_the_ray_came_from() {
     let hit = w.scene().intersect1(ray).expect("the sheet is hit from below");
     let sp = w.objects()[0].surface_point(&hit, &ray, w.shading(), w.terminator());
     assert!(!sp.entering && sp.n.y < 0.0, "{sp:?}");
-    assert!(sp.lift.dot(sp.ng) > 0.0, "lift {} is not on the viewer's side of {}", sp.lift, sp.ng);
+    let lift = w.shadow_lift(&sp);
+    assert!(lift.dot(sp.ng) > 0.0, "lift {lift} is not on the viewer's side of {}", sp.ng);
     let l = terminator_light(&sp, |_| true);
     let mut counts = RayCounts::default();
     let o = w.shadow_origin(&sp, l, &mut counts);
@@ -210,10 +211,11 @@ fn lift_never_moves_an_origin_through_other_geometry() {
     let ray = Ray::new(Vec3::new(0.9, 5.0, 0.0), -Vec3::Y);
     let hit = alone.scene().intersect1(ray).expect("the dome is hit");
     let sp = alone.objects()[0].surface_point(&hit, &ray, alone.shading(), alone.terminator());
-    assert!(sp.lift.y > 0.0, "no lift at {}", sp.p);
+    let lift = alone.shadow_lift(&sp);
+    assert!(lift.y > 0.0, "no lift at {}", sp.p);
     // A flat cover over that point, closer than the lift would reach (the dome's top pokes
     // through it).
-    let top = sp.p.y + 0.5 * sp.lift.y;
+    let top = sp.p.y + 0.5 * lift.y;
     let c = [
         Vec3::new(-3.0, top, -3.0),
         Vec3::new(3.0, top, -3.0),

@@ -2,13 +2,15 @@
 //! point that the shading normal calls lit is never in its own shadow with the default rule,
 //! while the former rule (`lift-ng`) blocks some (the cone points where the patches' true normals
 //! meet 6–8° apart); and the pass through the mesh's own bumps leaks no light: the shadow of
-//! another object, and a mesh's shadow onto itself across a real gap, stay.
+//! another object, and a mesh's shadow onto itself across a real gap, stay; and the pass, cut at
+//! its reach, answers as the walk over the whole ray did.
 mod common;
 
 use glam::Vec3;
 use phongrt::embree::{Device, Ray};
 use phongrt::phong::DEFAULT_ALPHA;
 use phongrt::scene::{load_obj, uv_sphere, LoadOptions, Mesh, Model};
+use phongrt_render::world::{SurfacePoint, MAX_BUMP_HITS};
 use phongrt_render::{ObjectMode, RayCounts, Terminator, World};
 
 fn demo_sphere() -> Model {
@@ -168,4 +170,107 @@ fn flat_offset_height_is_the_largest_offset_on_the_domain() {
         let h = flat_offset_height(a, b, c);
         assert!(h >= grid - 1e-12 && h <= grid + 1e-4, "({a}, {b}, {c}): {h} against the grid's {grid}");
     }
+}
+
+/// The bump pass as it was before it was cut at its reach: closest-hit rays over the whole
+/// remaining ray, each hit checked against the bump bound. `(passes, rays traced)`.
+fn bump_walk_over_the_whole_ray(w: &World, sp: &SurfacePoint, o: Vec3, dir: Vec3, tfar: f32) -> (bool, u64) {
+    let Some(b) = w.bump_bound(sp) else { return (false, 0) };
+    let mut tnear = 0.0;
+    for k in 0..MAX_BUMP_HITS as u64 {
+        let Some(hit) = w.scene().intersect1(Ray::new(o, dir).with_range(tnear, tfar)) else {
+            return (true, k + 1);
+        };
+        let d = o + hit.t * dir - sp.p;
+        if hit.geom_id != b.geom || d.length() > b.reach || d.dot(sp.n) > b.height {
+            return (false, k + 1);
+        }
+        tnear = hit.t.next_up();
+    }
+    (false, MAX_BUMP_HITS as u64)
+}
+
+/// Over shading points of `w`'s object 0 seen from every side and `lights` directions each
+/// (directional, and point lights at distances 0.05 to 3 along them), the blocked shadow rays'
+/// `hard_shadow_clear` against [`bump_walk_over_the_whole_ray`]: `(blocked rays, of them
+/// passed, rays of the whole walk, rays of the cut one)`; panics at the first disagreement.
+fn cut_bump_pass_against_the_whole_walk(w: &World, center: Vec3, radius: f32, lights: usize) -> [u64; 4] {
+    let mut tally = [0u64; 4];
+    let spin = std::f32::consts::PI * (3.0 - 5f32.sqrt());
+    for (i, d) in directions(4_000).enumerate() {
+        let ray = Ray::new(center + 4.0 * radius * d, -d);
+        let Some(hit) = w.scene().intersect1(ray) else { continue };
+        if hit.geom_id != 0 {
+            continue;
+        }
+        let sp = w.objects()[0].surface_point(&hit, &ray, w.shading(), w.terminator());
+        let (t, b) = sp.n.any_orthonormal_pair();
+        for k in 0..lights {
+            // Lights all round the point, grazing its shading plane (where the bumps are met),
+            // each point at its own turn.
+            let phi = spin * (i * lights + k) as f32;
+            let rise = -0.05 + 0.35 * (k % 5) as f32 / 4.0;
+            let l = (phi.cos() * t + phi.sin() * b + rise * sp.n).normalize();
+            let reach = radius * (0.05 + 3.0 * (k % 7) as f32 / 6.0);
+            let (dir, tfar) = if k % 2 == 0 { (l, f32::INFINITY) } else { (reach * l, 1.0) };
+            if sp.light_factor(l) <= 0.0 {
+                continue;
+            }
+            let o = w.shadow_origin(&sp, dir, &mut RayCounts::default());
+            if !w.scene().occluded1_from(Ray::new(o, dir).with_range(0.0, tfar), sp.origin) {
+                continue;
+            }
+            let (whole, rays) = bump_walk_over_the_whole_ray(w, &sp, o, dir, tfar);
+            let mut counts = RayCounts::default();
+            let cut = w.hard_shadow_clear(&sp, o, dir, tfar, &mut counts);
+            assert_eq!(cut, whole, "point {} ({hit:?}), light {dir} over (0, {tfar})", sp.p);
+            tally = [tally[0] + 1, tally[1] + whole as u64, tally[2] + rays, tally[3] + counts.terminator];
+        }
+    }
+    tally
+}
+
+#[test]
+fn the_bump_pass_cut_at_its_reach_answers_as_the_walk_over_the_whole_ray() {
+    let device = Device::new().unwrap();
+    // The demo sphere on the ground (hits on another object), and two spheres in one mesh with a
+    // gap (hits on the same object out of reach, past passed bumps).
+    let sphere = World::builder(&device, &demo_sphere())
+        .mode(ObjectMode::Phong { alpha: DEFAULT_ALPHA })
+        .ground(Some(phongrt_render::Ground::default()))
+        .build()
+        .unwrap();
+    let s = uv_sphere(12, 6, 1.0);
+    let pair = merged(&s, &s, Vec3::new(0.3, 2.1, 0.2));
+    let pair = phong_world(&device, &Model::from_mesh(pair), Terminator::Lift);
+    // A bumpy sphere: corners moved in and out by up to 8%, their normals left radial, so
+    // neighbouring patches meet at angles (the bumps the pass lets shadow rays through).
+    let mut bumpy = uv_sphere(24, 12, 1.0);
+    bumpy.positions.iter_mut().enumerate().for_each(|(k, q)| *q *= 1.0 + 0.08 * (2.7 * k as f32).sin());
+    let bumpy = phong_world(&device, &Model::from_mesh(bumpy), Terminator::Lift);
+    let mut passes = 0;
+    for (name, w, center) in [
+        ("sphere", &sphere, Vec3::ZERO),
+        ("pair", &pair, Vec3::new(0.15, 1.05, 0.1)),
+        ("bumpy", &bumpy, Vec3::ZERO),
+    ] {
+        let [blocked, passed, whole, cut] = cut_bump_pass_against_the_whole_walk(w, center, 1.6, 64);
+        println!("{name}: {blocked} blocked shadow rays, {passed} passed; rays {whole} whole, {cut} cut");
+        assert!(blocked > 10_000 && passed < blocked, "{name}: too few cases to judge");
+        passes += passed;
+    }
+    assert!(passes > 1_000, "{passes} shadow rays passed bumps: too few to judge");
+}
+
+#[test]
+#[ignore = "needs ../shared/corpus"]
+fn the_bump_pass_cut_at_its_reach_answers_as_the_walk_over_the_whole_ray_on_the_head() {
+    let device = Device::new().unwrap();
+    let path = common::corpus_required().join("african_head/african_head.obj");
+    let head = phong_world(&device, &load_obj(&path, &LoadOptions::default()).unwrap(), Terminator::Lift);
+    let (lo, hi) = head.bounds();
+    let [blocked, passed, whole, cut] =
+        cut_bump_pass_against_the_whole_walk(&head, 0.5 * (lo + hi), 0.5 * (hi - lo).length(), 32);
+    println!("head: {blocked} blocked shadow rays, {passed} passed; rays {whole} whole, {cut} cut");
+    assert!(blocked > 10_000 && passed > 100 && passed < blocked, "too few cases to judge");
 }
