@@ -621,6 +621,15 @@ struct RecordingTriangles {
     seen: std::sync::Mutex<Vec<(Vec3, Option<OriginPrim>)>>,
 }
 
+/// A committed scene of the given recorders, each attached as a user geometry, in order.
+fn recording_scene(device: &Device, recs: &[&Arc<RecordingTriangles>]) -> CommittedScene {
+    let mut scene = Scene::new(device).unwrap();
+    for rec in recs {
+        scene.attach_user(Arc::clone(rec), GeometryOptions::default()).unwrap();
+    }
+    scene.commit().unwrap()
+}
+
 impl RecordingTriangles {
     fn new(shift: Vec3) -> Arc<Self> {
         let (p, indices) = octahedron();
@@ -679,10 +688,7 @@ fn an_occlusion_ray_sees_its_origin_on_the_geometry_it_starts_on_and_nowhere_els
     let device = Device::new().unwrap();
     // A at the origin, B 3 units along x: two geometries of one scene.
     let (a, b) = (RecordingTriangles::new(Vec3::ZERO), RecordingTriangles::new(Vec3::X * 3.0));
-    let mut scene = Scene::new(&device).unwrap();
-    scene.attach_user(a.clone(), GeometryOptions::default()).unwrap();
-    scene.attach_user(b.clone(), GeometryOptions::default()).unwrap();
-    let scene = scene.commit().unwrap();
+    let scene = recording_scene(&device, &[&a, &b]);
     let (ray, origin) = shadow_from_hit(&scene, Vec3::new(0.2, 0.1, 5.0), PAST_B);
     a.take();
     b.take();
@@ -705,9 +711,7 @@ fn an_occlusion_ray_sees_its_origin_on_the_geometry_it_starts_on_and_nowhere_els
 fn an_occlusion_ray_sees_its_origin_only_in_the_instance_it_starts_on() {
     let device = Device::new().unwrap();
     let rec = RecordingTriangles::new(Vec3::ZERO);
-    let mut child = Scene::new(&device).unwrap();
-    child.attach_user(rec.clone(), GeometryOptions::default()).unwrap();
-    let child = child.commit().unwrap();
+    let child = recording_scene(&device, &[&rec]);
     let mut top = Scene::new(&device).unwrap();
     let shift = Vec3::X * 3.0;
     top.attach_instance(&child, Mat4::IDENTITY, u32::MAX).unwrap();
@@ -729,9 +733,7 @@ fn an_occlusion_ray_sees_its_origin_only_in_the_instance_it_starts_on() {
 fn packet_lanes_see_their_own_origins() {
     let device = Device::new().unwrap();
     let rec = RecordingTriangles::new(Vec3::ZERO);
-    let mut scene = Scene::new(&device).unwrap();
-    scene.attach_user(rec.clone(), GeometryOptions::default()).unwrap();
-    let scene = scene.commit().unwrap();
+    let scene = recording_scene(&device, &[&rec]);
     // Eight rays leaving the octahedron's upper faces upwards, every other one with its origin.
     let shadows: Vec<(Ray, RayOrigin)> = (0..8)
         .map(|k| {
@@ -759,9 +761,7 @@ fn packet_lanes_see_their_own_origins() {
 fn a_ray_id_under_the_callers_own_context_names_no_origin() {
     let device = Device::new().unwrap();
     let rec = RecordingTriangles::new(Vec3::ZERO);
-    let mut scene = Scene::new(&device).unwrap();
-    scene.attach_user(rec.clone(), GeometryOptions::default()).unwrap();
-    let scene = scene.commit().unwrap();
+    let scene = recording_scene(&device, &[&rec]);
     let (ray, _) = shadow_from_hit(&scene, Vec3::new(0.2, 0.1, 5.0), Vec3::new(0.2, 0.1, 9.0));
     rec.take();
     // A raw query whose ray carries an id, under a context of the caller's own: no origin is
