@@ -118,17 +118,72 @@ pub fn leaves_patch<T: Real>(
         return false;
     }
     // A patch convex towards a side: the lean test, when the ray leaves towards that side.
-    if conv.front || conv.back {
-        if let Some(settled) = leaves_convex(p, conv, u, v, org, dir) {
-            return settled;
-        }
+    // Otherwise the bounded test: its tangent-plane bound only where a cheap necessary
+    // condition for it holds, its curved rule (off by default) wherever that is on.
+    let curved = curved_rule::on();
+    match leaves_convex(p, conv, u, v, org, dir) {
+        Lean::Settled(settled) => settled,
+        Lean::Bounded => curved && leaves_bounded(p, conv, u, v, org, dir, curved),
+        Lean::MaySettle => leaves_bounded(p, conv, u, v, org, dir, curved),
     }
-    leaves_bounded(p, conv, u, v, org, dir)
 }
 
-/// [`leaves_patch`] where the ray leaves towards a side `p` is convex towards: `Some` of the
-/// answer then, `None` when the ray leaves towards a side without the flag (or along the plane
-/// to rounding). Only what that test needs is computed, in f64, with a margin from max-abs
+/// What [`leaves_convex`] found: the answer, or which test is to decide.
+#[derive(Clone, Copy, Debug, PartialEq, Eq)]
+enum Lean {
+    /// The ray leaves towards a side the patch is convex towards: the answer.
+    Settled(bool),
+    /// [`leaves_bounded`] could settle the ray (see [`may_settle_bounded`]).
+    MaySettle,
+    /// [`leaves_bounded`]'s tangent-plane bound cannot settle the ray; only its curved rule may.
+    Bounded,
+}
+
+/// Whether the origin's height could exceed the patch's highest point above the tangent plane:
+/// a necessary condition (up to a slack far above rounding) for [`leaves_bounded`]'s tangent-plane
+/// bound to settle the ray, from [`leaves_convex`]'s terms. Only a heuristic filter, so no
+/// margin for soundness is needed: the exact test still decides whatever passes.
+///
+/// The height above the tangent plane at `(u0, v0)` along `n` is the quadratic form
+/// `Q(δ) = (A·n) du² + (C·n) du dv + (B·n) dv²` (the first-order terms vanish, to rounding), whose
+/// maximum over the triangle (shifted by `(u0, v0)`) is `max(0, its maximum on the edges)`: an
+/// interior maximum is a stationary point, and `δ = 0` is the form's only one. On an edge from
+/// `x` to `y`, `Q((1 - s) x + s y) = (1 - s) Q(x) + s Q(y) - s (1 - s) Q(y - x)`, so the corner
+/// values and `Q` of the three edge vectors give it.
+#[inline(always)]
+fn may_settle_bounded(t: &ConvexTerms, u: f64, v: f64) -> bool {
+    let (h, sd, [bound, _, margin], [qa, qb, qc]) = *t;
+    // Orient the height and the form to the side the ray leaves towards.
+    let s = if sd < 0.0 { -1.0 } else { 1.0 };
+    let (h, a, b, c) = (h * s, qa * s, qb * s, qc * s);
+    let q = |du: f64, dv: f64| (a * du + c * dv) * du + b * dv * dv;
+    // Compute the corner values, then the maximum along each edge.
+    let (q0, q1, q2) = (q(-u, -v), q(1.0 - u, -v), q(-u, 1.0 - v));
+    let top = edge_max(q0, q1, a).max(edge_max(q1, q2, a + b - c)).max(edge_max(q2, q0, b));
+    h > top.max(0.0) - 1e3 * (bound * margin)
+}
+
+/// The maximum of `f(s) = (1 - s) q0 + s q1 - s (1 - s) qe` over `s` in `[0, 1]`.
+#[inline(always)]
+fn edge_max(q0: f64, q1: f64, qe: f64) -> f64 {
+    let ends = q0.max(q1);
+    if !(qe < 0.0) {
+        return ends;
+    }
+    // Concave: the stationary point, where inside the edge.
+    let k = q1 - q0 - qe;
+    let s = -k / (2.0 * qe);
+    if s > 0.0 && s < 1.0 {
+        ends.max(q0 - k * k / (4.0 * qe))
+    } else {
+        ends
+    }
+}
+
+/// [`leaves_patch`] where the ray leaves towards a side `p` is convex towards: [`Lean::Settled`]
+/// of the answer then; when the ray leaves towards a side without the flag (or along the plane
+/// to rounding), whether [`leaves_bounded`] could settle it ([`may_settle_bounded`], on the same
+/// terms). Only what that test needs is computed, in f64, with a margin from max-abs
 /// norms: for an f32 patch on a CPU with AVX2 in explicit vector code ([`convex_v3`], one
 /// register per vector), elsewhere in scalar code ([`convex_scalar`]); both do the same
 /// operations in the same order, so they give the same answer.
@@ -150,31 +205,28 @@ pub fn leaves_patch<T: Real>(
 /// origin above the plane by more than the patch reaches, and `dir·m > 1e-12 M² |dir|` that the
 /// ray never comes closer to it (`t >= tnear >= 0`; `dl` is `dir` times the positive scale).
 #[multiversion::multiversion(targets("x86_64+avx2+fma"))]
-fn leaves_convex<T: Real>(
-    p: &Patch<T>,
-    conv: Convexity,
-    u: f64,
-    v: f64,
-    org: V3<f32>,
-    dir: V3<f32>,
-) -> Option<bool> {
+fn leaves_convex<T: Real>(p: &Patch<T>, conv: Convexity, u: f64, v: f64, org: V3<f32>, dir: V3<f32>) -> Lean {
     let fast = multiversion::target::match_target! {
         "x86_64+avx2+fma" => convex_v3(p, u, v, org, dir),
         _ => None,
     };
-    let (h, sd, [bound, side, margin]) = fast.unwrap_or_else(|| convex_scalar(p, u, v, org, dir));
+    let terms = fast.unwrap_or_else(|| convex_scalar(p, u, v, org, dir));
+    let (h, sd, [bound, side, margin], _) = terms;
     if sd > bound * side && conv.front {
-        Some(h > bound * margin)
+        Lean::Settled(h > bound * margin)
     } else if sd < -(bound * side) && conv.back {
-        Some(-h > bound * margin)
+        Lean::Settled(-h > bound * margin)
+    } else if may_settle_bounded(&terms, u, v) {
+        Lean::MaySettle
     } else {
-        None
+        Lean::Bounded
     }
 }
 
 /// What [`leaves_convex`] compares: the origin's height `(õ - p̃0)·m` along the computed normal
-/// `m`, `dir·m`, and `[1e-12 M², |dir|, M + S + |g|]` (see there).
-type ConvexTerms = (f64, f64, [f64; 3]);
+/// `m`, `dir·m`, and `[1e-12 M², |dir|, M + S + |g|]` (see there); and for
+/// [`may_settle_bounded`], `[A·m, B·m, C·m]`.
+type ConvexTerms = (f64, f64, [f64; 3], [f64; 3]);
 
 /// [`ConvexTerms`] in scalar f64.
 #[inline(always)]
@@ -197,7 +249,8 @@ fn convex_scalar<T: Real>(p: &Patch<T>, u: f64, v: f64, org: V3<f32>, dir: V3<f3
     let o = (org.to_f64() - p.center().to_f64()) * p.inv_scale().to_f64();
     let g = o - p0;
     let dir = dir.to_f64();
-    (g.dot(n), dir.dot(n), [1e-12 * (mag * mag), dir.max_abs(), mag + size + g.max_abs()])
+    let form = [a.dot(n), b.dot(n), c.dot(n)];
+    (g.dot(n), dir.dot(n), [1e-12 * (mag * mag), dir.max_abs(), mag + size + g.max_abs()], form)
 }
 
 /// [`convex_scalar`] for an f32 patch in AVX2 vector code: each vector in one register (lanes
@@ -252,7 +305,8 @@ fn convex_v3<T: Real>(p: &Patch<T>, u: f64, v: f64, org: V3<f32>, dir: V3<f32>) 
         _mm_cvtsd_f64(_mm_max_sd(m, _mm256_extractf128_pd::<1>(x)))
     };
     let (mag, size) = (max3(mag), max3(size));
-    Some((dot(g, n), dot(dir, n), [1e-12 * (mag * mag), max3(abs(dir)), mag + size + max3(abs(g))]))
+    let form = [dot(a, n), dot(b, n), dot(c, n)];
+    Some((dot(g, n), dot(dir, n), [1e-12 * (mag * mag), max3(abs(dir)), mag + size + max3(abs(g))], form))
 }
 
 /// The patch's coefficients `[A, B, C, D, E, F]` in f64 (one by one: `array::map` is not
@@ -264,7 +318,8 @@ fn coefficients_f64<T: Real>(p: &Patch<T>) -> [V3<f64>; 6] {
 }
 
 /// [`leaves_patch`] on a patch not proved convex towards the side the ray leaves on: the
-/// tangent-plane bound with the exact maximum height of the patch (and the curved rule, where on).
+/// tangent-plane bound with the exact maximum height of the patch (and the curved rule, where
+/// `curved`).
 #[inline(never)]
 fn leaves_bounded<T: Real>(
     p: &Patch<T>,
@@ -273,6 +328,7 @@ fn leaves_bounded<T: Real>(
     v: f64,
     org: V3<f32>,
     dir: V3<f32>,
+    curved: bool,
 ) -> bool {
     // Compute the point, its partials and normal, and the ray, in the patch's local frame.
     let [a, b, c, d, e, f] = coefficients_f64(p);
@@ -313,7 +369,7 @@ fn leaves_bounded<T: Real>(
     // The curved rule, but not on a bowl seen from inside (convex towards the other side): it
     // rises all around the ray, and the rule settled 26 of 1,134 such tests on the bench's head.
     !bowl
-        && curved_rule::on()
+        && curved
         && leaves_curved(&Curved {
             q: [a, b, c],
             uv: [u, v],
@@ -709,6 +765,7 @@ mod tests {
                 assert_eq!(vector.0.to_bits(), scalar.0.to_bits(), "{c:?}");
                 assert_eq!(vector.1.to_bits(), scalar.1.to_bits(), "{c:?}");
                 assert_eq!(vector.2.map(f64::to_bits), scalar.2.map(f64::to_bits), "{c:?}");
+                assert_eq!(vector.3.map(f64::to_bits), scalar.3.map(f64::to_bits), "{c:?}");
                 compared += 1;
             }
         }
@@ -727,6 +784,78 @@ mod tests {
                 None
             }
         }
+    }
+
+    /// [`leaves_patch`] as it was before [`may_settle_bounded`] filtered the calls of the bounded
+    /// test, without the curved rule.
+    fn leaves_ungated(p: &Patch<f32>, u: f64, v: f64, org: V3<f32>, dir: V3<f32>) -> bool {
+        match leaves_convex(p, convexity(p), u, v, org, dir) {
+            Lean::Settled(settled) => settled,
+            _ => leaves_bounded(p, convexity(p), u, v, org, dir, false),
+        }
+    }
+
+    /// The filter in front of the bounded test loses none of its settles: on planar patches
+    /// (where the test matters most), domes, bowls, saddles and random curved patches, from
+    /// random points lifted by 1e-7 to 1e-2 (local units) to either side, in random directions,
+    /// every ray the bounded test settles passes the filter (the answers are the same with and
+    /// without it), while most rays it cannot settle are turned away before it.
+    #[test]
+    fn the_gated_bounded_test_settles_every_ray_the_ungated_one_settles() {
+        let mut rng = crate::phong::accuracy::SplitMix(57);
+        let flat: Patch<f32> = Patch::new([DVec3::ZERO, DVec3::X, DVec3::Y], [DVec3::Z; 3], 1.0);
+        let tilted: Patch<f32> = Patch::new(
+            [DVec3::new(0.3, 0.1, 0.2), DVec3::new(1.4, 0.2, 0.9), DVec3::new(0.1, 1.3, 0.5)],
+            [DVec3::new(-0.2, -0.9, 1.0).normalize(); 3],
+            0.75,
+        );
+        // Rays the bounded test settles on planar and on curved patches; rays that reach it.
+        let (mut planar, mut curved, mut turned_away, mut reached) = (0, 0, 0, 0);
+        for i in 0..40_000 {
+            let p = match i % 6 {
+                0 => flat,
+                1 => tilted,
+                2 => dome(0.8),
+                3 => dome(-0.8),
+                4 => saddle(),
+                _ => {
+                    let c = crate::phong::accuracy::generate(
+                        &mut rng,
+                        crate::phong::accuracy::Category::RandomCurved,
+                    );
+                    Patch::new(c.p, c.n, c.alpha)
+                }
+            };
+            let (mut u, mut v) = (rng.range(0.0, 1.0), rng.range(0.0, 1.0));
+            if u + v > 1.0 {
+                (u, v) = (1.0 - u, 1.0 - v);
+            }
+            let (u, v) = (u as f32, v as f32);
+            let Some(ng) = p.geometric_normal(u, v) else { continue };
+            let lift = 10f64.powf(rng.range(-7.0, -2.0)) * if rng.range(0.0, 1.0) < 0.5 { -1.0 } else { 1.0 };
+            let org = p.eval(u, v) + ng * (lift as f32 * p.scale());
+            let dir = V3::new(rng.range(-1.0, 1.0), rng.range(-1.0, 1.0), rng.range(-1.0, 1.0)).cast::<f32>();
+            let (uf, vf) = (u as f64, v as f64);
+            let ungated = leaves_ungated(&p, uf, vf, org, dir);
+            // The curved rule off: the gated answer as `leaves_patch` gives it then.
+            let gated = match leaves_convex(&p, convexity(&p), uf, vf, org, dir) {
+                Lean::Settled(s) => s,
+                Lean::MaySettle => leaves_bounded(&p, convexity(&p), uf, vf, org, dir, false),
+                Lean::Bounded => {
+                    turned_away += 1;
+                    false
+                }
+            };
+            assert_eq!(gated, ungated, "patch {i}: u {u} v {v} lift {lift:e} dir {dir:?}");
+            let bounded = !matches!(leaves_convex(&p, convexity(&p), uf, vf, org, dir), Lean::Settled(_));
+            reached += bounded as usize;
+            planar += (bounded && gated && i % 6 < 2) as usize;
+            curved += (bounded && gated && i % 6 >= 2) as usize;
+        }
+        assert!(planar > 3000, "only {planar} rays settled on the planar patches");
+        assert!(curved > 50, "only {curved} rays settled on the curved patches");
+        let unsettled = reached - planar - curved;
+        assert!(turned_away * 10 > unsettled * 9, "{turned_away} of {unsettled} unsettled rays turned away");
     }
 
     #[test]
