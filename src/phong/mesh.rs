@@ -596,6 +596,10 @@ impl PhongMesh {
             active[i]
                 && !self.leaves_origin(item, origin[i], V3::from(o), V3::from(d), rays.tmin[i], rays.tmax[i])
         });
+        // Every lane settled by its origin: no kernel run.
+        if !live.contains(&true) {
+            return hits;
+        }
         for i in (0..LANES).filter(|&i| !live[i]) {
             (block.dir[0][i], block.dir[1][i], block.dir[2][i]) = (0.0, 0.0, 0.0);
         }
