@@ -485,8 +485,15 @@ impl PhongMesh {
             if self.leaves_origin(item, origin, o, d, tnear, tfar) {
                 return None;
             }
-            let (h, outcome) = intersect_traced(p, o, d, tnear, tfar, self.method);
-            on_test(PatchTest { prim: item, tnear, tmax: tfar, outcome, hull_tested: true });
+            // The patch the ray starts on: no hull test (the ray starts inside the hull).
+            let (h, outcome, hull_tested) = if origin.is_some_and(|x| x.prim == item) {
+                let (h, outcome) = intersect_in_hull_traced(p, o, d, tnear, tfar, self.method);
+                (h, outcome, false)
+            } else {
+                let (h, outcome) = intersect_traced(p, o, d, tnear, tfar, self.method);
+                (h, outcome, true)
+            };
+            on_test(PatchTest { prim: item, tnear, tmax: tfar, outcome, hull_tested });
             return h.map(|h| self.prim_hit(p, item, h));
         }
         let c = self.clusters.get(item as usize)?;
@@ -652,4 +659,52 @@ pub fn phong_point(p: [Vec3; 3], n: [Vec3; 3], alpha: f32, u: f64, v: f64) -> Ve
     let patch: Patch<f64> = Patch::new(p.map(|x| x.as_dvec3()), n.map(|x| x.as_dvec3()), alpha as f64);
     let q: DVec3 = patch.eval(u, v).into();
     q.as_vec3()
+}
+
+#[cfg(test)]
+mod tests {
+    use super::*;
+    use crate::rng::SplitMix;
+
+    /// The patch a ray starts on is solved without its hull test (the ray starts inside the
+    /// hull): from random points of a curved patch, lifted by up to 1e-2 of its size to either
+    /// side, in random directions, the answer is the one without the origin, hit for hit and bit
+    /// for bit, wherever the origin test does not settle the ray (and `None` where it does).
+    #[test]
+    fn the_patch_a_ray_starts_on_answers_as_without_the_origin() {
+        let p = [Vec3::ZERO, Vec3::X, Vec3::Y];
+        let n = [Vec3::new(-0.5, -0.5, 1.0), Vec3::new(0.8, 0.0, 1.0), Vec3::new(0.0, -0.8, 1.0)];
+        let mesh = PhongMesh::builder(&p, &n, &[[0, 1, 2]]).alpha(1.0).plain().build().unwrap();
+        let mut rng = SplitMix(71);
+        let (mut solved, mut hits) = (0, 0);
+        for _ in 0..20_000 {
+            let (mut u, mut v) = (rng.range(0.0, 1.0) as f32, rng.range(0.0, 1.0) as f32);
+            if u + v > 1.0 {
+                (u, v) = (1.0 - u, 1.0 - v);
+            }
+            let Some(ng) = mesh.geometric_normal(0, u, v) else { continue };
+            let lift = 10f32.powf(rng.range(-5.0, -2.0) as f32) * rng.range(-1.0, 1.0).signum() as f32;
+            let org = mesh.surface_point(0, u, v).unwrap().0 + ng * lift;
+            let dir = Vec3::new(
+                rng.range(-1.0, 1.0) as f32,
+                rng.range(-1.0, 1.0) as f32,
+                rng.range(-1.0, 1.0) as f32,
+            );
+            let origin = Some(OriginPrim { prim: 0, u, v });
+            let mut tested = None;
+            let from =
+                mesh.intersect_primitive_from(0, origin, org, dir, 0.0, f32::INFINITY, |t| tested = Some(t));
+            let plain = mesh.intersect_primitive(0, org, dir, 0.0, f32::INFINITY, |_| {});
+            match tested {
+                Some(t) => {
+                    assert!(!t.hull_tested, "the hull test ran");
+                    assert_eq!(from, plain, "u {u} v {v} lift {lift:e} dir {dir:?}");
+                    solved += 1;
+                    hits += from.is_some() as usize;
+                }
+                None => assert_eq!((from, plain), (None, None), "settled, yet hit: u {u} v {v} dir {dir:?}"),
+            }
+        }
+        assert!(solved > 2000 && hits > 500, "{solved} solved, {hits} hits");
+    }
 }
