@@ -78,6 +78,23 @@ impl RayOrigin {
     }
 }
 
+/// A hit that occluded a ray of [`CommittedScene::occluded1_by`] or
+/// [`CommittedScene::occluded8_rays_by`]: one the geometry's filters accepted, on a user
+/// geometry of this crate, outside any instance. It is one of the ray's hits, not necessarily
+/// the nearest (an occlusion query stops at the first it accepts).
+#[derive(Clone, Copy, Debug, PartialEq)]
+pub struct Blocker {
+    /// The geometry's ID (as [`Hit::geom_id`]).
+    pub geom_id: u32,
+    /// The primitive (as [`Hit::prim_id`]).
+    pub prim: u32,
+    /// The hit's ray parameter.
+    pub t: f32,
+}
+
+/// No [`Blocker`] recorded.
+const NO_BLOCKER: Blocker = Blocker { geom_id: u32::MAX, prim: u32::MAX, t: f32::NAN };
+
 /// A set of primitives that Embree can bound and intersect through callbacks.
 pub trait UserPrimitives: Send + Sync + 'static {
     /// Number of primitives (Embree's primitives are `0..count`; hits report [`PrimHit::prim`]).
@@ -453,6 +470,8 @@ struct OccludedOffer {
     args: *const sys::RTCOccludedFunctionNArguments,
     ray: Soa,
     cand: Candidates,
+    /// Where an accepted hit is recorded for the lane's origin entry (see [`Blockers`]).
+    blockers: Blockers,
 }
 
 impl Offer for OccludedOffer {
@@ -481,6 +500,7 @@ impl Offer for OccludedOffer {
             }
             // Occluded: Embree's convention is tfar = -inf.
             self.ray.set_f(RAY_TFAR, lane, f32::NEG_INFINITY);
+            self.blockers.record(self.ray.u(RAY_ID, lane), a, h);
             true
         }
     }
@@ -554,6 +574,8 @@ impl Offer for IntersectOne {
 /// The candidates of a one-lane occluded callback: an accepted one occludes the ray.
 struct OccludedOne {
     args: *const sys::RTCOccludedFunctionNArguments,
+    /// Where an accepted hit is recorded for the ray's origin entry (see [`Blockers`]).
+    blockers: Blockers,
 }
 
 impl Offer for OccludedOne {
@@ -581,6 +603,7 @@ impl Offer for OccludedOne {
                 return false;
             }
             ray.set_f(RAY_TFAR, 0, f32::NEG_INFINITY);
+            self.blockers.record(ray.u(RAY_ID, 0), a, h);
             true
         }
     }
@@ -903,7 +926,8 @@ unsafe fn occluded_one<T: UserPrimitives>(
     let from = head.and_then(|head| unsafe { origin_in(head, a.context, a.geomID, id) });
     if let Some(first) = data.intersect_from(a.primID, from, r.org, r.dir, r.tnear, r.tfar) {
         // SAFETY: lane 0 < 1, and the offer is made for the packet Embree passed.
-        unsafe { offer_hits(data, a.primID, 0, from, ray, first, &mut OccludedOne { args }) }
+        let blockers = Blockers::of(head);
+        unsafe { offer_hits(data, a.primID, 0, from, ray, first, &mut OccludedOne { args, blockers }) }
     }
 }
 
@@ -951,7 +975,7 @@ unsafe fn occluded_lanes<T: UserPrimitives>(
         // and `a.context` is Embree's pointer to its context.
         unsafe { origin_in(head?, a.context, a.geomID, ray.u(RAY_ID, lane)) }
     };
-    let mut offer = OccludedOffer { args, ray, cand: Candidates::new(n) };
+    let mut offer = OccludedOffer { args, ray, cand: Candidates::new(n), blockers: Blockers::of(head) };
     // SAFETY: `ray` is the ray part of the packet Embree passed, of width n, and the offer is
     // made for it.
     unsafe { for_each_candidate(data, a.primID, valid, ray, origin, &mut offer) }
@@ -975,19 +999,71 @@ struct OriginHead {
     len: usize,
 }
 
-/// A query context followed by the origins of the query's `N` rays.
+/// A query context followed by the origins of the query's `N` rays, then what blocked each.
 #[repr(C)]
 struct OriginContext<const N: usize> {
     head: OriginHead,
     /// Entry `k` for the rays with `id == k + 1`.
     origins: [RayOrigin; N],
+    /// What occluded the ray with `id == k + 1` (written by the callbacks, see [`Blockers`]).
+    blockers: [Blocker; N],
 }
 
 // The origins start right after the head whatever N is (repr(C), and the head's size is a
-// multiple of a RayOrigin's alignment): a callback finds them from the head alone.
-const _: () = assert!(std::mem::offset_of!(OriginContext<1>, origins) == std::mem::size_of::<OriginHead>());
-const _: () =
-    assert!(std::mem::offset_of!(OriginContext<PACKET8>, origins) == std::mem::size_of::<OriginHead>());
+// multiple of a RayOrigin's alignment), and the blockers right after the origins: a callback
+// finds them from the head alone.
+const fn blockers_follow<const N: usize>() -> bool {
+    let head = std::mem::size_of::<OriginHead>();
+    std::mem::offset_of!(OriginContext<N>, origins) == head
+        && std::mem::offset_of!(OriginContext<N>, blockers) == head + N * std::mem::size_of::<RayOrigin>()
+}
+const _: () = assert!(blockers_follow::<1>() && blockers_follow::<PACKET8>());
+
+/// Where a callback records what occluded a ray ([`Blocker`]): the blockers of the query's
+/// registered [`OriginContext`], entry `k` for the ray with `id == k + 1`; nothing for a query
+/// without one.
+#[derive(Clone, Copy)]
+struct Blockers {
+    base: *mut Blocker,
+    len: usize,
+}
+
+impl Blockers {
+    /// The blockers of the registered context `head` (see [`registered`]), if any.
+    #[inline(always)]
+    fn of(head: Option<*const OriginHead>) -> Self {
+        let Some(head) = head else { return Blockers { base: std::ptr::null_mut(), len: 0 } };
+        // SAFETY: `head` is the registered context of the running query, alive until it returns
+        // (`OriginContext::query`); its length is read through the registered pointer, and the
+        // blockers follow its `len` origins (asserted above). The pointer derives from the
+        // context's exclusive borrow in `query`; Embree writes only the base, not these.
+        unsafe {
+            let len = std::ptr::addr_of!((*head).len).read();
+            Blockers { base: (head.add(1) as *const RayOrigin).add(len) as *mut Blocker, len }
+        }
+    }
+
+    /// Record the accepted hit `h` of the callback `a` as what occluded the ray with `id`:
+    /// outside instances only, and only for a ray that names an entry.
+    ///
+    /// # Safety
+    /// `a` must be the running callback's valid arguments, under the query `self` was made for.
+    #[inline(always)]
+    unsafe fn record(&self, id: u32, a: &sys::RTCOccludedFunctionNArguments, h: &PrimHit) {
+        let k = id.wrapping_sub(1) as usize;
+        if k >= self.len {
+            return;
+        }
+        // SAFETY: `a.context` is the query's context (callback contract); entry k < len is in
+        // the registered context's blockers (`Blockers::of`), written by this thread alone.
+        unsafe {
+            if (*a.context).instID[0] != u32::MAX {
+                return;
+            }
+            self.base.add(k).write(Blocker { geom_id: a.geomID, prim: h.prim, t: h.t });
+        }
+    }
+}
 
 thread_local! {
     /// The [`OriginContext`] of the origin-aware query running on this thread (null: none), as
@@ -1006,7 +1082,11 @@ impl Drop for Registered {
 
 impl<const N: usize> OriginContext<N> {
     fn new(origins: [RayOrigin; N]) -> Self {
-        OriginContext { head: OriginHead { base: QueryContext::new(), len: N }, origins }
+        OriginContext {
+            head: OriginHead { base: QueryContext::new(), len: N },
+            origins,
+            blockers: [NO_BLOCKER; N],
+        }
     }
 
     /// Run the query `f(args)` with arguments whose context is `self`, registered as this
@@ -1077,12 +1157,20 @@ impl CommittedScene {
     /// meet it again (Phong patches: [`crate::phong::convexity::leaves_patch`]). `None` is
     /// `occluded1`.
     pub fn occluded1_from(&self, ray: Ray, origin: Option<RayOrigin>) -> bool {
-        let Some(o) = origin else { return self.occluded1(ray) };
+        self.occluded1_by(ray, origin).is_some()
+    }
+
+    /// [`CommittedScene::occluded1_from`], with what occluded the ray: `None` where nothing
+    /// does, `Some(blocker)` where something does, with the accepted hit where it was on a user
+    /// geometry of this crate outside instances and `origin` was given ([`Blocker`]).
+    pub fn occluded1_by(&self, ray: Ray, origin: Option<RayOrigin>) -> Option<Option<Blocker>> {
+        let Some(o) = origin else { return self.occluded1(ray).then_some(None) };
         let mut ctx = OriginContext::<1>::new([o]);
         let mut r = ray.to_sys();
         r.id = 1;
         ctx.query(false, |args| self.occluded1_raw(&mut r, Some(args)));
-        r.tfar == f32::NEG_INFINITY
+        let b = ctx.blockers[0];
+        (r.tfar == f32::NEG_INFINITY).then_some((b.geom_id != u32::MAX).then_some(b))
     }
 
     /// [`CommittedScene::occluded8_rays`] for rays that start at `origins[k]` (lane `k`), as
@@ -1094,8 +1182,21 @@ impl CommittedScene {
         active: u8,
         coherent: bool,
     ) -> u8 {
+        self.occluded8_rays_by(rays, origins, active, coherent).0
+    }
+
+    /// [`CommittedScene::occluded8_rays_from`], with what occluded each lane, as
+    /// [`CommittedScene::occluded1_by`] gives it: the mask of occluded lanes, and lane `k`'s
+    /// [`Blocker`] where one was recorded.
+    pub fn occluded8_rays_by(
+        &self,
+        rays: &[Ray; PACKET8],
+        origins: &[Option<RayOrigin>; PACKET8],
+        active: u8,
+        coherent: bool,
+    ) -> (u8, [Option<Blocker>; PACKET8]) {
         if active == 0 {
-            return 0;
+            return (0, [None; PACKET8]);
         }
         let mut ctx = OriginContext::<PACKET8>::new([NO_ORIGIN; PACKET8]);
         let mut ray = rayhit8(rays).ray;
@@ -1106,8 +1207,13 @@ impl CommittedScene {
             }
         }
         ctx.query(coherent, |args| self.occluded8(&valid8(active), &mut ray, Some(args)));
-        (0..PACKET8)
-            .fold(0, |m, k| m | (((active & (1 << k) != 0 && ray.tfar[k] == f32::NEG_INFINITY) as u8) << k))
+        let blocked = (0..PACKET8)
+            .fold(0, |m, k| m | (((active & (1 << k) != 0 && ray.tfar[k] == f32::NEG_INFINITY) as u8) << k));
+        let by = std::array::from_fn(|k| {
+            let b = ctx.blockers[k];
+            (blocked & (1 << k) != 0 && b.geom_id != u32::MAX).then_some(b)
+        });
+        (blocked, by)
     }
 }
 
