@@ -1317,9 +1317,10 @@ pub const MAX_BUMP_HITS: usize = 4;
 ///   `(ε / 2) (|o|₁ + |p|₁ + t |dir|₁)`, and above `height` for
 ///   `t >= (height - (o - p)·n + ε (|o|₁ + |p|₁)) / (dir·n - ε |dir|₁)`.
 /// How far past the bump cap a recorded blocker's `t` must lie to settle
-/// [`World::passes_own_bumps`] on its own: a factor far above the relative error in `t` of a
-/// patch solve (about 1e-6 at worst in `phongrt accuracy`), so that the walk's own query, which
-/// solves the same root again, finds it at or past the cap too.
+/// [`World::passes_own_bumps`] on its own: a factor far above the relative error in `t` of the
+/// f32 patch solve outside grazing (8.6e-7 at most in `phongrt accuracy`'s table), so that the
+/// walk's own queries, which solve the same root again with the same patch test, find it at or
+/// past the cap too.
 const BLOCKER_T_SLACK: f32 = 1.0 + 1e-4;
 
 fn bump_cap(p: Vec3, n: Vec3, b: &BumpBound, o: Vec3, dir: Vec3) -> f32 {
