@@ -1209,6 +1209,9 @@ impl CommittedScene {
         ctx.query(coherent, |args| self.occluded8(&valid8(active), &mut ray, Some(args)));
         let blocked = (0..PACKET8)
             .fold(0, |m, k| m | (((active & (1 << k) != 0 && ray.tfar[k] == f32::NEG_INFINITY) as u8) << k));
+        if blocked == 0 {
+            return (0, [None; PACKET8]);
+        }
         let by = std::array::from_fn(|k| {
             let b = ctx.blockers[k];
             (blocked & (1 << k) != 0 && b.geom_id != u32::MAX).then_some(b)
