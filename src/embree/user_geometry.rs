@@ -990,38 +990,35 @@ unsafe fn occluded_lanes<T: UserPrimitives>(
 // registered for the query it runs under, and only for a ray that names an entry.
 
 /// What every [`OriginContext`] starts with: the context Embree sees (first, so a pointer to it
-/// is a pointer to the whole) and how many origins follow.
+/// is a pointer to the whole), how many origins follow, and where the callbacks record what
+/// occluded each ray (null: not asked).
 #[repr(C)]
 struct OriginHead {
     /// What Embree sees.
     base: QueryContext,
     /// The number of origins that follow the head.
     len: usize,
+    /// `len` blockers, entry `k` for the ray with `id == k + 1`, or null (see [`Blockers`]).
+    blockers: *mut Blocker,
 }
 
-/// A query context followed by the origins of the query's `N` rays, then what blocked each.
+/// A query context followed by the origins of the query's `N` rays.
 #[repr(C)]
 struct OriginContext<const N: usize> {
     head: OriginHead,
     /// Entry `k` for the rays with `id == k + 1`.
     origins: [RayOrigin; N],
-    /// What occluded the ray with `id == k + 1` (written by the callbacks, see [`Blockers`]).
-    blockers: [Blocker; N],
 }
 
 // The origins start right after the head whatever N is (repr(C), and the head's size is a
-// multiple of a RayOrigin's alignment), and the blockers right after the origins: a callback
-// finds them from the head alone.
-const fn blockers_follow<const N: usize>() -> bool {
-    let head = std::mem::size_of::<OriginHead>();
-    std::mem::offset_of!(OriginContext<N>, origins) == head
-        && std::mem::offset_of!(OriginContext<N>, blockers) == head + N * std::mem::size_of::<RayOrigin>()
-}
-const _: () = assert!(blockers_follow::<1>() && blockers_follow::<PACKET8>());
+// multiple of a RayOrigin's alignment): a callback finds them from the head alone.
+const _: () = assert!(std::mem::offset_of!(OriginContext<1>, origins) == std::mem::size_of::<OriginHead>());
+const _: () =
+    assert!(std::mem::offset_of!(OriginContext<PACKET8>, origins) == std::mem::size_of::<OriginHead>());
 
-/// Where a callback records what occluded a ray ([`Blocker`]): the blockers of the query's
-/// registered [`OriginContext`], entry `k` for the ray with `id == k + 1`; nothing for a query
-/// without one.
+/// Where a callback records what occluded a ray ([`Blocker`]): the blockers the query's
+/// registered [`OriginContext`] points to, entry `k` for the ray with `id == k + 1`; nothing
+/// where the query asked for none.
 #[derive(Clone, Copy)]
 struct Blockers {
     base: *mut Blocker,
@@ -1029,17 +1026,18 @@ struct Blockers {
 }
 
 impl Blockers {
-    /// The blockers of the registered context `head` (see [`registered`]), if any.
+    /// The blockers of the registered context `head` (see [`registered`]), if it asks for them.
     #[inline(always)]
     fn of(head: Option<*const OriginHead>) -> Self {
         let Some(head) = head else { return Blockers { base: std::ptr::null_mut(), len: 0 } };
         // SAFETY: `head` is the registered context of the running query, alive until it returns
-        // (`OriginContext::query`); its length is read through the registered pointer, and the
-        // blockers follow its `len` origins (asserted above). The pointer derives from the
-        // context's exclusive borrow in `query`; Embree writes only the base, not these.
+        // (`OriginContext::query`); its fields are read through the registered pointer (Embree
+        // writes only the base). `blockers` is null or `len` entries the query's caller holds
+        // exclusively until the query returns (`OriginContext::query`).
         unsafe {
-            let len = std::ptr::addr_of!((*head).len).read();
-            Blockers { base: (head.add(1) as *const RayOrigin).add(len) as *mut Blocker, len }
+            let base = std::ptr::addr_of!((*head).blockers).read();
+            let len = if base.is_null() { 0 } else { std::ptr::addr_of!((*head).len).read() };
+            Blockers { base, len }
         }
     }
 
@@ -1083,10 +1081,24 @@ impl Drop for Registered {
 impl<const N: usize> OriginContext<N> {
     fn new(origins: [RayOrigin; N]) -> Self {
         OriginContext {
-            head: OriginHead { base: QueryContext::new(), len: N },
+            head: OriginHead { base: QueryContext::new(), len: N, blockers: std::ptr::null_mut() },
             origins,
-            blockers: [NO_BLOCKER; N],
         }
+    }
+
+    /// [`OriginContext::query`], the callbacks recording in `blockers[k]` what occluded the ray
+    /// with `id == k + 1` (entries they do not write are left as they are).
+    #[inline(always)]
+    fn query_by<R>(
+        &mut self,
+        coherent: bool,
+        blockers: &mut [Blocker; N],
+        f: impl FnOnce(&mut OccludedArgs<'_>) -> R,
+    ) -> R {
+        self.head.blockers = blockers.as_mut_ptr();
+        let r = self.query(coherent, f);
+        self.head.blockers = std::ptr::null_mut();
+        r
     }
 
     /// Run the query `f(args)` with arguments whose context is `self`, registered as this
@@ -1157,7 +1169,12 @@ impl CommittedScene {
     /// meet it again (Phong patches: [`crate::phong::convexity::leaves_patch`]). `None` is
     /// `occluded1`.
     pub fn occluded1_from(&self, ray: Ray, origin: Option<RayOrigin>) -> bool {
-        self.occluded1_by(ray, origin).is_some()
+        let Some(o) = origin else { return self.occluded1(ray) };
+        let mut ctx = OriginContext::<1>::new([o]);
+        let mut r = ray.to_sys();
+        r.id = 1;
+        ctx.query(false, |args| self.occluded1_raw(&mut r, Some(args)));
+        r.tfar == f32::NEG_INFINITY
     }
 
     /// [`CommittedScene::occluded1_from`], with what occluded the ray: `None` where nothing
@@ -1168,9 +1185,9 @@ impl CommittedScene {
         let mut ctx = OriginContext::<1>::new([o]);
         let mut r = ray.to_sys();
         r.id = 1;
-        ctx.query(false, |args| self.occluded1_raw(&mut r, Some(args)));
-        let b = ctx.blockers[0];
-        (r.tfar == f32::NEG_INFINITY).then_some((b.geom_id != u32::MAX).then_some(b))
+        let mut by = [NO_BLOCKER];
+        ctx.query_by(false, &mut by, |args| self.occluded1_raw(&mut r, Some(args)));
+        (r.tfar == f32::NEG_INFINITY).then_some((by[0].geom_id != u32::MAX).then_some(by[0]))
     }
 
     /// [`CommittedScene::occluded8_rays`] for rays that start at `origins[k]` (lane `k`), as
@@ -1182,7 +1199,7 @@ impl CommittedScene {
         active: u8,
         coherent: bool,
     ) -> u8 {
-        self.occluded8_rays_by(rays, origins, active, coherent).0
+        self.occluded8_query(rays, origins, active, coherent, None)
     }
 
     /// [`CommittedScene::occluded8_rays_from`], with what occluded each lane, as
@@ -1195,8 +1212,30 @@ impl CommittedScene {
         active: u8,
         coherent: bool,
     ) -> (u8, [Option<Blocker>; PACKET8]) {
-        if active == 0 {
+        let mut by = [NO_BLOCKER; PACKET8];
+        let blocked = self.occluded8_query(rays, origins, active, coherent, Some(&mut by));
+        if blocked == 0 {
             return (0, [None; PACKET8]);
+        }
+        (
+            blocked,
+            std::array::from_fn(|k| (blocked & (1 << k) != 0 && by[k].geom_id != u32::MAX).then_some(by[k])),
+        )
+    }
+
+    /// The query of [`CommittedScene::occluded8_rays_from`], recording the lanes' blockers in
+    /// `by` where given.
+    #[inline(always)]
+    fn occluded8_query(
+        &self,
+        rays: &[Ray; PACKET8],
+        origins: &[Option<RayOrigin>; PACKET8],
+        active: u8,
+        coherent: bool,
+        by: Option<&mut [Blocker; PACKET8]>,
+    ) -> u8 {
+        if active == 0 {
+            return 0;
         }
         let mut ctx = OriginContext::<PACKET8>::new([NO_ORIGIN; PACKET8]);
         let mut ray = rayhit8(rays).ray;
@@ -1206,17 +1245,13 @@ impl CommittedScene {
                 ray.id[k] = k as u32 + 1;
             }
         }
-        ctx.query(coherent, |args| self.occluded8(&valid8(active), &mut ray, Some(args)));
-        let blocked = (0..PACKET8)
-            .fold(0, |m, k| m | (((active & (1 << k) != 0 && ray.tfar[k] == f32::NEG_INFINITY) as u8) << k));
-        if blocked == 0 {
-            return (0, [None; PACKET8]);
-        }
-        let by = std::array::from_fn(|k| {
-            let b = ctx.blockers[k];
-            (blocked & (1 << k) != 0 && b.geom_id != u32::MAX).then_some(b)
-        });
-        (blocked, by)
+        let query = |args: &mut OccludedArgs<'_>| self.occluded8(&valid8(active), &mut ray, Some(args));
+        match by {
+            Some(by) => ctx.query_by(coherent, by, query),
+            None => ctx.query(coherent, query),
+        };
+        (0..PACKET8)
+            .fold(0, |m, k| m | (((active & (1 << k) != 0 && ray.tfar[k] == f32::NEG_INFINITY) as u8) << k))
     }
 }
 
