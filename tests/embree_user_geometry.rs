@@ -6,7 +6,7 @@ use std::panic::{catch_unwind, AssertUnwindSafe};
 use std::sync::Arc;
 
 use phongrt::embree::{
-    new_rayhit, CommittedScene, Device, EmbreeError, GeometryOptions, IntersectArgs, OccludedArgs,
+    new_rayhit, Blocker, CommittedScene, Device, EmbreeError, GeometryOptions, IntersectArgs, OccludedArgs,
     OriginPrim, PrimHit, QueryContext, Ray, RayOrigin, Scene, UserPrimitives, UserTriangles, PACKET8,
 };
 use phongrt::sys;
@@ -771,4 +771,52 @@ fn a_ray_id_under_the_callers_own_context_names_no_origin() {
     scene.occluded1_raw(&mut r, Some(&mut OccludedArgs::new().context(&mut ctx)));
     let seen = rec.take();
     assert!(!seen.is_empty() && seen.iter().all(|(_, o)| o.is_none()), "{seen:?}");
+}
+
+/// The hits of `ray` on `scene` in order (closest-hit queries, each just past the last).
+fn hits_along(scene: &CommittedScene, ray: Ray) -> Vec<phongrt::embree::Hit> {
+    let mut out = Vec::new();
+    let mut tnear = ray.tnear;
+    while let Some(h) = scene.intersect1(ray.with_range(tnear, ray.tfar)) {
+        tnear = h.t.next_up();
+        out.push(h);
+    }
+    out
+}
+
+#[test]
+fn an_occlusion_ray_reports_one_of_its_hits_as_what_blocked_it() {
+    let device = Device::new().unwrap();
+    let (a, b) = (RecordingTriangles::new(Vec3::ZERO), RecordingTriangles::new(Vec3::X * 3.0));
+    let scene = recording_scene(&device, &[&a, &b]);
+    // From A's top towards B's centre and on: through B's faces. The ray starts a little past
+    // A's face, so that only B's faces are hits.
+    let (ray, origin) = shadow_from_hit(&scene, Vec3::new(0.2, 0.1, 5.0), Vec3::X * 3.0);
+    let ray = Ray::new(ray.org, ray.dir * 2.0).with_range(1e-3, 1.0);
+    let hits = hits_along(&scene, ray);
+    assert!(hits.len() >= 2 && hits.iter().all(|h| h.geom_id != origin.geom_id), "{hits:?}");
+    let is_hit = |b: &Blocker| hits.iter().any(|h| (h.geom_id, h.prim_id, h.t) == (b.geom_id, b.prim, b.t));
+    // With an origin the blocking hit is reported; without, only that something blocks.
+    let by = scene.occluded1_by(ray, Some(origin)).expect("B blocks the ray");
+    assert!(by.is_some_and(|b| is_hit(&b)), "{by:?} is not one of {hits:?}");
+    assert_eq!(scene.occluded1_by(ray, None), Some(None));
+    // A ray that meets nothing is clear.
+    assert_eq!(
+        scene.occluded1_by(Ray::new(ray.org, Vec3::Z).with_range(1e-3, f32::INFINITY), Some(origin)),
+        None
+    );
+    // The same rays as packet lanes, every other one with its origin and every third inactive.
+    let rays: [Ray; PACKET8] = std::array::from_fn(|_| ray);
+    let origins: [Option<RayOrigin>; PACKET8] = std::array::from_fn(|k| (k % 2 == 0).then_some(origin));
+    let active = 0b1101_1011;
+    for coherent in [false, true] {
+        let (blocked, by) = scene.occluded8_rays_by(&rays, &origins, active, coherent);
+        assert_eq!(blocked, active);
+        for k in 0..PACKET8 {
+            match (active & (1 << k) != 0, origins[k]) {
+                (true, Some(_)) => assert!(by[k].is_some_and(|b| is_hit(&b)), "lane {k}: {:?}", by[k]),
+                _ => assert_eq!(by[k], None, "lane {k}"),
+            }
+        }
+    }
 }

@@ -16,8 +16,8 @@ pub mod user_geometry;
 #[allow(deprecated)]
 pub use user_geometry::UserGeometryOptions;
 pub use user_geometry::{
-    user_hits_out_of_range, OriginPrim, PacketRays, PrimHit, RayOrigin, UserPrimitives, UserTriangles,
-    MAX_PACKET,
+    user_hits_out_of_range, Blocker, OriginPrim, PacketRays, PrimHit, RayOrigin, UserPrimitives,
+    UserTriangles, MAX_PACKET,
 };
 #[cfg(feature = "capi")]
 pub mod capi;

@@ -78,6 +78,23 @@ impl RayOrigin {
     }
 }
 
+/// A hit that occluded a ray of [`CommittedScene::occluded1_by`] or
+/// [`CommittedScene::occluded8_rays_by`]: one the geometry's filters accepted, on a user
+/// geometry of this crate, outside any instance. It is one of the ray's hits, not necessarily
+/// the nearest (an occlusion query stops at the first it accepts).
+#[derive(Clone, Copy, Debug, PartialEq)]
+pub struct Blocker {
+    /// The geometry's ID (as [`Hit::geom_id`]).
+    pub geom_id: u32,
+    /// The primitive (as [`Hit::prim_id`]).
+    pub prim: u32,
+    /// The hit's ray parameter.
+    pub t: f32,
+}
+
+/// No [`Blocker`] recorded.
+const NO_BLOCKER: Blocker = Blocker { geom_id: u32::MAX, prim: u32::MAX, t: f32::NAN };
+
 /// A set of primitives that Embree can bound and intersect through callbacks.
 pub trait UserPrimitives: Send + Sync + 'static {
     /// Number of primitives (Embree's primitives are `0..count`; hits report [`PrimHit::prim`]).
@@ -453,6 +470,8 @@ struct OccludedOffer {
     args: *const sys::RTCOccludedFunctionNArguments,
     ray: Soa,
     cand: Candidates,
+    /// Where an accepted hit is recorded for the lane's origin entry (see [`Blockers`]).
+    blockers: Blockers,
 }
 
 impl Offer for OccludedOffer {
@@ -481,6 +500,7 @@ impl Offer for OccludedOffer {
             }
             // Occluded: Embree's convention is tfar = -inf.
             self.ray.set_f(RAY_TFAR, lane, f32::NEG_INFINITY);
+            self.blockers.record(self.ray.u(RAY_ID, lane), a, h);
             true
         }
     }
@@ -554,6 +574,8 @@ impl Offer for IntersectOne {
 /// The candidates of a one-lane occluded callback: an accepted one occludes the ray.
 struct OccludedOne {
     args: *const sys::RTCOccludedFunctionNArguments,
+    /// Where an accepted hit is recorded for the ray's origin entry (see [`Blockers`]).
+    blockers: Blockers,
 }
 
 impl Offer for OccludedOne {
@@ -581,6 +603,7 @@ impl Offer for OccludedOne {
                 return false;
             }
             ray.set_f(RAY_TFAR, 0, f32::NEG_INFINITY);
+            self.blockers.record(ray.u(RAY_ID, 0), a, h);
             true
         }
     }
@@ -903,7 +926,8 @@ unsafe fn occluded_one<T: UserPrimitives>(
     let from = head.and_then(|head| unsafe { origin_in(head, a.context, a.geomID, id) });
     if let Some(first) = data.intersect_from(a.primID, from, r.org, r.dir, r.tnear, r.tfar) {
         // SAFETY: lane 0 < 1, and the offer is made for the packet Embree passed.
-        unsafe { offer_hits(data, a.primID, 0, from, ray, first, &mut OccludedOne { args }) }
+        let blockers = Blockers::of(head);
+        unsafe { offer_hits(data, a.primID, 0, from, ray, first, &mut OccludedOne { args, blockers }) }
     }
 }
 
@@ -951,7 +975,7 @@ unsafe fn occluded_lanes<T: UserPrimitives>(
         // and `a.context` is Embree's pointer to its context.
         unsafe { origin_in(head?, a.context, a.geomID, ray.u(RAY_ID, lane)) }
     };
-    let mut offer = OccludedOffer { args, ray, cand: Candidates::new(n) };
+    let mut offer = OccludedOffer { args, ray, cand: Candidates::new(n), blockers: Blockers::of(head) };
     // SAFETY: `ray` is the ray part of the packet Embree passed, of width n, and the offer is
     // made for it.
     unsafe { for_each_candidate(data, a.primID, valid, ray, origin, &mut offer) }
@@ -966,13 +990,16 @@ unsafe fn occluded_lanes<T: UserPrimitives>(
 // registered for the query it runs under, and only for a ray that names an entry.
 
 /// What every [`OriginContext`] starts with: the context Embree sees (first, so a pointer to it
-/// is a pointer to the whole) and how many origins follow.
+/// is a pointer to the whole), how many origins follow, and where the callbacks record what
+/// occluded each ray (null: not asked).
 #[repr(C)]
 struct OriginHead {
     /// What Embree sees.
     base: QueryContext,
     /// The number of origins that follow the head.
     len: usize,
+    /// `len` blockers, entry `k` for the ray with `id == k + 1`, or null (see [`Blockers`]).
+    blockers: *mut Blocker,
 }
 
 /// A query context followed by the origins of the query's `N` rays.
@@ -988,6 +1015,53 @@ struct OriginContext<const N: usize> {
 const _: () = assert!(std::mem::offset_of!(OriginContext<1>, origins) == std::mem::size_of::<OriginHead>());
 const _: () =
     assert!(std::mem::offset_of!(OriginContext<PACKET8>, origins) == std::mem::size_of::<OriginHead>());
+
+/// Where a callback records what occluded a ray ([`Blocker`]): the blockers the query's
+/// registered [`OriginContext`] points to, entry `k` for the ray with `id == k + 1`; nothing
+/// where the query asked for none.
+#[derive(Clone, Copy)]
+struct Blockers {
+    base: *mut Blocker,
+    len: usize,
+}
+
+impl Blockers {
+    /// The blockers of the registered context `head` (see [`registered`]), if it asks for them.
+    #[inline(always)]
+    fn of(head: Option<*const OriginHead>) -> Self {
+        let Some(head) = head else { return Blockers { base: std::ptr::null_mut(), len: 0 } };
+        // SAFETY: `head` is the registered context of the running query, alive until it returns
+        // (`OriginContext::query`); its fields are read through the registered pointer (Embree
+        // writes only the base). `blockers` is null or `len` entries the query's caller holds
+        // exclusively until the query returns (`OriginContext::query`).
+        unsafe {
+            let base = std::ptr::addr_of!((*head).blockers).read();
+            let len = if base.is_null() { 0 } else { std::ptr::addr_of!((*head).len).read() };
+            Blockers { base, len }
+        }
+    }
+
+    /// Record the accepted hit `h` of the callback `a` as what occluded the ray with `id`:
+    /// outside instances only, and only for a ray that names an entry.
+    ///
+    /// # Safety
+    /// `a` must be the running callback's valid arguments, under the query `self` was made for.
+    #[inline(always)]
+    unsafe fn record(&self, id: u32, a: &sys::RTCOccludedFunctionNArguments, h: &PrimHit) {
+        let k = id.wrapping_sub(1) as usize;
+        if k >= self.len {
+            return;
+        }
+        // SAFETY: `a.context` is the query's context (callback contract); entry k < len is in
+        // the registered context's blockers (`Blockers::of`), written by this thread alone.
+        unsafe {
+            if (*a.context).instID[0] != u32::MAX {
+                return;
+            }
+            self.base.add(k).write(Blocker { geom_id: a.geomID, prim: h.prim, t: h.t });
+        }
+    }
+}
 
 thread_local! {
     /// The [`OriginContext`] of the origin-aware query running on this thread (null: none), as
@@ -1006,7 +1080,25 @@ impl Drop for Registered {
 
 impl<const N: usize> OriginContext<N> {
     fn new(origins: [RayOrigin; N]) -> Self {
-        OriginContext { head: OriginHead { base: QueryContext::new(), len: N }, origins }
+        OriginContext {
+            head: OriginHead { base: QueryContext::new(), len: N, blockers: std::ptr::null_mut() },
+            origins,
+        }
+    }
+
+    /// [`OriginContext::query`], the callbacks recording in `blockers[k]` what occluded the ray
+    /// with `id == k + 1` (entries they do not write are left as they are).
+    #[inline(always)]
+    fn query_by<R>(
+        &mut self,
+        coherent: bool,
+        blockers: &mut [Blocker; N],
+        f: impl FnOnce(&mut OccludedArgs<'_>) -> R,
+    ) -> R {
+        self.head.blockers = blockers.as_mut_ptr();
+        let r = self.query(coherent, f);
+        self.head.blockers = std::ptr::null_mut();
+        r
     }
 
     /// Run the query `f(args)` with arguments whose context is `self`, registered as this
@@ -1085,6 +1177,19 @@ impl CommittedScene {
         r.tfar == f32::NEG_INFINITY
     }
 
+    /// [`CommittedScene::occluded1_from`], with what occluded the ray: `None` where nothing
+    /// does, `Some(blocker)` where something does, with the accepted hit where it was on a user
+    /// geometry of this crate outside instances and `origin` was given ([`Blocker`]).
+    pub fn occluded1_by(&self, ray: Ray, origin: Option<RayOrigin>) -> Option<Option<Blocker>> {
+        let Some(o) = origin else { return self.occluded1(ray).then_some(None) };
+        let mut ctx = OriginContext::<1>::new([o]);
+        let mut r = ray.to_sys();
+        r.id = 1;
+        let mut by = [NO_BLOCKER];
+        ctx.query_by(false, &mut by, |args| self.occluded1_raw(&mut r, Some(args)));
+        (r.tfar == f32::NEG_INFINITY).then_some((by[0].geom_id != u32::MAX).then_some(by[0]))
+    }
+
     /// [`CommittedScene::occluded8_rays`] for rays that start at `origins[k]` (lane `k`), as
     /// [`CommittedScene::occluded1_from`] for one ray: the same answers.
     pub fn occluded8_rays_from(
@@ -1093,6 +1198,41 @@ impl CommittedScene {
         origins: &[Option<RayOrigin>; PACKET8],
         active: u8,
         coherent: bool,
+    ) -> u8 {
+        self.occluded8_query(rays, origins, active, coherent, None)
+    }
+
+    /// [`CommittedScene::occluded8_rays_from`], with what occluded each lane, as
+    /// [`CommittedScene::occluded1_by`] gives it: the mask of occluded lanes, and lane `k`'s
+    /// [`Blocker`] where one was recorded.
+    pub fn occluded8_rays_by(
+        &self,
+        rays: &[Ray; PACKET8],
+        origins: &[Option<RayOrigin>; PACKET8],
+        active: u8,
+        coherent: bool,
+    ) -> (u8, [Option<Blocker>; PACKET8]) {
+        let mut by = [NO_BLOCKER; PACKET8];
+        let blocked = self.occluded8_query(rays, origins, active, coherent, Some(&mut by));
+        if blocked == 0 {
+            return (0, [None; PACKET8]);
+        }
+        (
+            blocked,
+            std::array::from_fn(|k| (blocked & (1 << k) != 0 && by[k].geom_id != u32::MAX).then_some(by[k])),
+        )
+    }
+
+    /// The query of [`CommittedScene::occluded8_rays_from`], recording the lanes' blockers in
+    /// `by` where given.
+    #[inline(always)]
+    fn occluded8_query(
+        &self,
+        rays: &[Ray; PACKET8],
+        origins: &[Option<RayOrigin>; PACKET8],
+        active: u8,
+        coherent: bool,
+        by: Option<&mut [Blocker; PACKET8]>,
     ) -> u8 {
         if active == 0 {
             return 0;
@@ -1105,7 +1245,11 @@ impl CommittedScene {
                 ray.id[k] = k as u32 + 1;
             }
         }
-        ctx.query(coherent, |args| self.occluded8(&valid8(active), &mut ray, Some(args)));
+        let query = |args: &mut OccludedArgs<'_>| self.occluded8(&valid8(active), &mut ray, Some(args));
+        match by {
+            Some(by) => ctx.query_by(coherent, by, query),
+            None => ctx.query(coherent, query),
+        };
         (0..PACKET8)
             .fold(0, |m, k| m | (((active & (1 << k) != 0 && ray.tfar[k] == f32::NEG_INFINITY) as u8) << k))
     }
