@@ -3,6 +3,8 @@
 //! queries the ray callbacks and shading use. Pure Rust: attaching one to Embree is
 //! [`crate::embree::phong_geometry`].
 
+use std::mem::MaybeUninit;
+
 use glam::{DVec3, Vec3};
 use multiversion::multiversion;
 
@@ -590,16 +592,29 @@ impl PhongMesh {
         let Some(p) = self.patches.get(item as usize) else { return hits };
         // Compute the lanes to test: active, and not settled by their origin (a zero direction
         // turns a lane away as bad input inside the kernel).
-        let mut block = *rays;
-        let live: [bool; LANES] = std::array::from_fn(|i| {
+        let mut live = active;
+        for i in 0..LANES {
             let (o, d) = ray(i);
-            active[i]
-                && !self.leaves_origin(item, origin[i], V3::from(o), V3::from(d), rays.tmin[i], rays.tmax[i])
-        });
-        for i in (0..LANES).filter(|&i| !live[i]) {
-            (block.dir[0][i], block.dir[1][i], block.dir[2][i]) = (0.0, 0.0, 0.0);
+            if active[i]
+                && self.leaves_origin(item, origin[i], V3::from(o), V3::from(d), rays.tmin[i], rays.tmax[i])
+            {
+                live[i] = false;
+            }
         }
-        let answers = certified_lanes(p, &block);
+        // The lanes left out get a zero direction, in a copy made only when one of them has
+        // another (a packet callback's inactive lanes are zero already).
+        let moving = |i: usize| rays.dir[0][i] != 0.0 || rays.dir[1][i] != 0.0 || rays.dir[2][i] != 0.0;
+        let mut block = MaybeUninit::uninit();
+        let rays = if (0..LANES).any(|i| !live[i] && moving(i)) {
+            let block = block.write(*rays);
+            for i in (0..LANES).filter(|&i| !live[i]) {
+                (block.dir[0][i], block.dir[1][i], block.dir[2][i]) = (0.0, 0.0, 0.0);
+            }
+            &*block
+        } else {
+            rays
+        };
+        let answers = certified_lanes(p, rays);
         for i in (0..LANES).filter(|&i| live[i]) {
             let hit = match answers.decision[i] {
                 LaneDecision::Miss => None,
