@@ -594,10 +594,11 @@ impl PhongMesh {
         // turns a lane away as bad input inside the kernel).
         let mut live = active;
         for i in 0..LANES {
+            if !(active[i] && origin[i].is_some_and(|o| o.prim == item)) {
+                continue;
+            }
             let (o, d) = ray(i);
-            if active[i]
-                && self.leaves_origin(item, origin[i], V3::from(o), V3::from(d), rays.tmin[i], rays.tmax[i])
-            {
+            if self.leaves_origin(item, origin[i], V3::from(o), V3::from(d), rays.tmin[i], rays.tmax[i]) {
                 live[i] = false;
             }
         }
@@ -615,17 +616,22 @@ impl PhongMesh {
             rays
         };
         let answers = certified_lanes(p, rays);
-        for i in (0..LANES).filter(|&i| live[i]) {
+        // Compute the live lanes' hits (a miss leaves the lane's `None`).
+        for i in 0..LANES {
             let hit = match answers.decision[i] {
-                LaneDecision::Miss => None,
-                LaneDecision::Hit => answers.hit(i),
+                _ if !live[i] => continue,
+                LaneDecision::Miss => continue,
+                LaneDecision::Hit => PatchHit { t: answers.t[i], u: answers.u[i], v: answers.v[i] },
                 LaneDecision::Unsure => {
                     let (o, d) = ray(i);
                     let (lo, hi) = (rays.tmin[i], rays.tmax[i]);
-                    intersect_in_hull_traced(p, V3::from(o), V3::from(d), lo, hi, self.method).0
+                    match intersect_in_hull_traced(p, V3::from(o), V3::from(d), lo, hi, self.method).0 {
+                        Some(h) => h,
+                        None => continue,
+                    }
                 }
             };
-            hits[i] = hit.map(|h| self.prim_hit(p, item, h));
+            hits[i] = Some(self.prim_hit(p, item, hit));
         }
         hits
     }
