@@ -987,13 +987,16 @@ unsafe fn occluded_one<T: UserPrimitives>(
         return;
     }
     let ray = Soa { base: a.ray as *mut u32, n: 1 };
-    // SAFETY: lane 0 of an RTCRayN of width 1; `a.context` is the query's context.
-    let (r, id) = unsafe { (read_ray(ray, 0), ray.u(RAY_ID, 0)) };
-    // Only a ray that names an origin entry looks for the registration.
+    // Compute the origin first (only a ray that names an entry looks for the registration),
+    // then read the ray: nothing of it is held across the lookup.
+    // SAFETY: lane 0 of an RTCRayN of width 1.
+    let id = unsafe { ray.u(RAY_ID, 0) };
     let head = if id == 0 { None } else { registered(a.context) };
     // SAFETY: `head` is registered for the running query, `a.context` Embree's pointer to its
     // context.
     let from = head.and_then(|head| unsafe { origin_in(head, a.context, a.geomID, id) });
+    // SAFETY: lane 0 of an RTCRayN of width 1.
+    let r = unsafe { read_ray(ray, 0) };
     if let Some(first) = data.intersect_from(a.primID, from, r.org, r.dir, r.tnear, r.tfar) {
         // SAFETY: lane 0 < 1, and the offer is made for the packet Embree passed.
         unsafe { offer_hits(data, a.primID, 0, from, ray, first, &mut OccludedOne { args }) }
