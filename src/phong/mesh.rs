@@ -491,6 +491,24 @@ impl PhongMesh {
             on_test(PatchTest { prim: item, tnear, tmax: tfar, outcome, hull_tested: true });
             return h.map(|h| self.prim_hit(p, item, h));
         }
+        self.intersect_cluster_from(item, origin, org, dir, tnear, tfar, on_test)
+    }
+
+    /// [`PhongMesh::intersect_primitive_from`] on a cluster: out of line, so that the route of
+    /// one patch per primitive (the default) keeps nothing in memory for it.
+    #[inline(never)]
+    #[allow(clippy::too_many_arguments)]
+    fn intersect_cluster_from(
+        &self,
+        item: u32,
+        origin: Option<OriginPrim>,
+        org: Vec3,
+        dir: Vec3,
+        tnear: f32,
+        tfar: f32,
+        mut on_test: impl FnMut(PatchTest),
+    ) -> Option<PrimHit> {
+        let (o, d) = (V3::from(org), V3::from(dir));
         let c = self.clusters.get(item as usize)?;
         // Compute the entries, and the members entered, nearest first (ties by lane).
         let entries = cluster_entries(c.hull(), org, dir, tnear, tfar);
