@@ -155,6 +155,7 @@ fn packet_lanes_equal_single_rays_through_the_default_8_lane_test() {
 }
 
 #[test]
+#[allow(clippy::needless_range_loop)] // lane loops index several arrays by the lane
 fn the_default_8_lane_test_answers_as_the_phong_mesh_lanes() {
     let m = uv_sphere(12, 6, 1.0);
     let mesh = Arc::new(PhongMesh::new(&m.positions, &m.normals, &m.indices, 0.75).unwrap());
