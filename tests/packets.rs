@@ -5,10 +5,14 @@ mod common;
 use std::panic::{catch_unwind, AssertUnwindSafe};
 
 use glam::Vec3;
+use std::sync::Arc;
+
 use phongrt::embree::{
-    CommittedScene, Device, GeometryOptions, PhongMesh, PrimHit, Ray, Scene, UserPrimitives, PACKET8,
+    CommittedScene, Device, GeometryOptions, OriginPrim, PhongMesh, PrimHit, Ray, Scene, UserPrimitives,
+    PACKET8,
 };
 use phongrt::phong::accuracy::SplitMix;
+use phongrt::phong::intersect::{LaneRays, LANES};
 use phongrt::scene::uv_sphere;
 
 /// Partial and full masks, including single lanes at both ends and none at all.
@@ -110,6 +114,93 @@ fn packet_queries_answer_only_the_active_lanes() {
     assert_eq!(scene.occluded8_rays(&rays, 0x0F, true), 0x0F);
     assert!(scene.intersect8_rays(&rays, 0xFF, true).iter().all(Option::is_some));
     assert_eq!(scene.occluded8_rays(&rays, 0xFF, true), 0xFF);
+}
+
+/// A Phong mesh with only the one-ray tests: its packets go through the trait's default
+/// `intersect_packet8` and `intersect_packet`, lane by lane.
+struct OneByOne(Arc<PhongMesh>);
+
+impl UserPrimitives for OneByOne {
+    fn count(&self) -> u32 {
+        self.0.count()
+    }
+    fn bounds(&self, prim: u32) -> Option<(Vec3, Vec3)> {
+        self.0.bounds(prim)
+    }
+    fn intersect(&self, prim: u32, org: Vec3, dir: Vec3, tnear: f32, tfar: f32) -> Option<PrimHit> {
+        self.0.intersect(prim, org, dir, tnear, tfar)
+    }
+    fn intersect_from(
+        &self,
+        prim: u32,
+        origin: Option<OriginPrim>,
+        org: Vec3,
+        dir: Vec3,
+        tnear: f32,
+        tfar: f32,
+    ) -> Option<PrimHit> {
+        self.0.intersect_from(prim, origin, org, dir, tnear, tfar)
+    }
+}
+
+#[test]
+fn packet_lanes_equal_single_rays_through_the_default_8_lane_test() {
+    let device = Device::new().unwrap();
+    let m = uv_sphere(12, 6, 1.0);
+    let pm = PhongMesh::new(&m.positions, &m.normals, &m.indices, 0.75).unwrap();
+    let mut scene = Scene::new(&device).unwrap();
+    scene.attach_user(OneByOne(Arc::new(pm)), GeometryOptions::default()).unwrap();
+    let scene = scene.commit().unwrap();
+    assert!(check_lanes_match_single_rays(&scene) > 10_000);
+}
+
+#[test]
+#[allow(clippy::needless_range_loop)] // lane loops index several arrays by the lane
+fn the_default_8_lane_test_answers_as_the_phong_mesh_lanes() {
+    let m = uv_sphere(12, 6, 1.0);
+    let mesh = Arc::new(PhongMesh::new(&m.positions, &m.normals, &m.indices, 0.75).unwrap());
+    let one = OneByOne(mesh.clone());
+    let mut r = SplitMix(11);
+    let (mut hits, mut settled) = (0, 0);
+    for _ in 0..4000 {
+        let prim = (r.f() * mesh.patches().len() as f64) as u32;
+        // Rays from outside towards the patch's corner region, some starting on the patch itself.
+        let mut rays = LaneRays {
+            org: [[0.0; LANES]; 3],
+            dir: [[0.0; LANES]; 3],
+            tmin: [0.0; LANES],
+            tmax: [0.0; LANES],
+        };
+        let mut origin = [None; LANES];
+        let active: [bool; LANES] = std::array::from_fn(|_| r.f() < 0.8);
+        let corner = m.positions[m.indices[prim as usize][0] as usize];
+        for i in 0..LANES {
+            let (u, v) = (r.f() as f32 * 0.5, r.f() as f32 * 0.5);
+            let (o, d) = if r.f() < 0.4 {
+                // Leaving the patch at (u, v), towards anywhere.
+                origin[i] = Some(OriginPrim { prim, u, v });
+                (mesh.surface_point(prim, u, v).unwrap().0, r.unit().as_vec3())
+            } else {
+                let o = r.unit().as_vec3() * 3.0;
+                (o, corner + r.unit().as_vec3() * 0.2 - o)
+            };
+            for k in 0..3 {
+                (rays.org[k][i], rays.dir[k][i]) = (o[k], d[k]);
+            }
+            (rays.tmin[i], rays.tmax[i]) = (1e-4, 10.0);
+        }
+        let want = mesh.intersect_packet8(prim, &rays, active, &origin);
+        let got = one.intersect_packet8(prim, &rays, active, &origin);
+        assert_eq!(got, want, "patch {prim}");
+        for i in 0..LANES {
+            if !active[i] {
+                assert_eq!(got[i], None, "inactive lane {i} answered");
+            }
+            hits += got[i].is_some() as usize;
+            settled += (active[i] && origin[i].is_some() && got[i].is_none()) as usize;
+        }
+    }
+    assert!(hits > 1000 && settled > 1000, "{hits} hits, {settled} lanes from the patch unhit");
 }
 
 /// The unit triangle in z = 0, whose intersect callback panics.

@@ -84,6 +84,19 @@ impl UserPrimitives for PhongMesh {
             }
         }
     }
+
+    /// The packet's lanes tested together as [`PhongMesh::intersect_lanes`] (as
+    /// `intersect_packet` above), straight from the lanes the callback read.
+    #[inline(always)]
+    fn intersect_packet8(
+        &self,
+        item: u32,
+        rays: &LaneRays,
+        active: [bool; LANES],
+        origin: &[Option<OriginPrim>; LANES],
+    ) -> [Option<PrimHit>; LANES] {
+        self.intersect_lanes(item, rays, active, origin)
+    }
 }
 
 impl Scene {

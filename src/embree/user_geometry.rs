@@ -23,6 +23,7 @@ use super::scene::{
     query_flags, rayhit8, valid8, CommittedScene, GeometryOptions, Hit, OccludedArgs, OwnedGeometry,
     QueryContext, Ray, Scene, PACKET8,
 };
+use crate::phong::intersect::{LaneRays, LANES};
 use crate::sys;
 
 /// A hit on one primitive, in the primitive's own space (instances are Embree's business).
@@ -134,6 +135,33 @@ pub trait UserPrimitives: Send + Sync + 'static {
             hits[lane] = self.intersect_from(prim, rays.origin[lane], org, dir, tnear, tfar);
         }
     }
+
+    /// [`UserPrimitives::intersect_packet`] for a packet of [`LANES`] (`rtcIntersect8`,
+    /// `rtcOccluded8`: the renderer's packets), as the packet callbacks read it: lane `i`'s
+    /// nearest hit in the answer's `[i]`, `None` for a lane not `active`. The rays' inactive
+    /// lanes are zero. The default goes through [`UserPrimitives::intersect_packet`]; an
+    /// implementation may take the lanes as they are, with the same answers.
+    #[inline]
+    fn intersect_packet8(
+        &self,
+        prim: u32,
+        rays: &LaneRays,
+        active: [bool; LANES],
+        origin: &[Option<OriginPrim>; LANES],
+    ) -> [Option<PrimHit>; LANES] {
+        let mut p = NO_RAYS;
+        p.n = LANES;
+        for i in 0..LANES {
+            p.active[i] = active[i];
+            for k in 0..3 {
+                (p.org[k][i], p.dir[k][i]) = (rays.org[k][i], rays.dir[k][i]);
+            }
+            (p.tnear[i], p.tfar[i], p.origin[i]) = (rays.tmin[i], rays.tmax[i], origin[i]);
+        }
+        let mut hits = [None; MAX_PACKET];
+        self.intersect_packet(prim, &p, &mut hits);
+        std::array::from_fn(|i| hits[i].filter(|_| active[i]))
+    }
 }
 
 /// The widest packet Embree passes to the callbacks (`rtcIntersect16`).
@@ -211,6 +239,17 @@ impl<T: UserPrimitives> UserPrimitives for Arc<T> {
     #[inline(always)]
     fn intersect_packet(&self, prim: u32, rays: &PacketRays, hits: &mut [Option<PrimHit>; MAX_PACKET]) {
         (**self).intersect_packet(prim, rays, hits)
+    }
+
+    #[inline(always)]
+    fn intersect_packet8(
+        &self,
+        prim: u32,
+        rays: &LaneRays,
+        active: [bool; LANES],
+        origin: &[Option<OriginPrim>; LANES],
+    ) -> [Option<PrimHit>; LANES] {
+        (**self).intersect_packet8(prim, rays, active, origin)
     }
 }
 
@@ -736,6 +775,10 @@ unsafe fn for_each_candidate<T: UserPrimitives>(
     origin: impl Fn(usize) -> Option<OriginPrim>,
     offer: &mut impl Offer,
 ) {
+    if let Ok(valid) = <&[i32; LANES]>::try_from(valid) {
+        // SAFETY: as this function's.
+        return unsafe { for_each_candidate8(data, prim, valid, ray, origin, offer) };
+    }
     let mut rays = NO_RAYS;
     // SAFETY: the layout is RTCRayN of width valid.len() (this function's contract).
     unsafe { read_packet(ray, valid, origin, &mut rays) };
@@ -745,6 +788,56 @@ unsafe fn for_each_candidate<T: UserPrimitives>(
         let (true, Some(first)) = (rays.active[lane], hits[lane]) else { continue };
         // SAFETY: lane < n (contract).
         unsafe { offer_lane_hits(data, prim, lane, rays.origin[lane], ray, first, offer) };
+    }
+}
+
+/// [`for_each_candidate`] for a packet of [`LANES`]: the lanes read straight into the
+/// [`LaneRays`] that [`UserPrimitives::intersect_packet8`] takes (no packet of 16 lanes to
+/// zero and copy from).
+///
+/// # Safety
+/// As [`for_each_candidate`], with `ray` of width [`LANES`].
+#[inline(always)]
+#[allow(clippy::needless_range_loop)] // lane loops index several arrays by the lane
+unsafe fn for_each_candidate8<T: UserPrimitives>(
+    data: &T,
+    prim: u32,
+    valid: &[i32; LANES],
+    ray: Soa,
+    origin: impl Fn(usize) -> Option<OriginPrim>,
+    offer: &mut impl Offer,
+) {
+    let mut active = [false; LANES];
+    for lane in 0..LANES {
+        active[lane] = valid[lane] == -1;
+    }
+    // Compute the lanes' rays field by field, the inactive lanes zero (as `read_packet`).
+    let field = |k: usize| {
+        let mut out = [0.0f32; LANES];
+        for lane in 0..LANES {
+            // SAFETY: lane < LANES, the width of the RTCRayN `ray` (contract).
+            let x = unsafe { ray.f(k, lane) };
+            out[lane] = if active[lane] { x } else { 0.0 };
+        }
+        out
+    };
+    let rays = LaneRays {
+        org: [field(RAY_ORG), field(RAY_ORG + 1), field(RAY_ORG + 2)],
+        dir: [field(RAY_DIR), field(RAY_DIR + 1), field(RAY_DIR + 2)],
+        tmin: field(RAY_TNEAR),
+        tmax: field(RAY_TFAR),
+    };
+    let mut origins = [None; LANES];
+    for lane in 0..LANES {
+        if active[lane] {
+            origins[lane] = origin(lane);
+        }
+    }
+    let hits = data.intersect_packet8(prim, &rays, active, &origins);
+    for lane in 0..LANES {
+        let (true, Some(first)) = (active[lane], hits[lane]) else { continue };
+        // SAFETY: lane < LANES (contract).
+        unsafe { offer_lane_hits(data, prim, lane, origins[lane], ray, first, offer) };
     }
 }
 
@@ -917,13 +1010,16 @@ unsafe fn occluded_one<T: UserPrimitives>(
         return;
     }
     let ray = Soa { base: a.ray as *mut u32, n: 1 };
-    // SAFETY: lane 0 of an RTCRayN of width 1; `a.context` is the query's context.
-    let (r, id) = unsafe { (read_ray(ray, 0), ray.u(RAY_ID, 0)) };
-    // Only a ray that names an origin entry looks for the registration.
+    // Compute the origin first (only a ray that names an entry looks for the registration),
+    // then read the ray: nothing of it is held across the lookup.
+    // SAFETY: lane 0 of an RTCRayN of width 1.
+    let id = unsafe { ray.u(RAY_ID, 0) };
     let head = if id == 0 { None } else { registered(a.context) };
     // SAFETY: `head` is registered for the running query, `a.context` Embree's pointer to its
     // context.
     let from = head.and_then(|head| unsafe { origin_in(head, a.context, a.geomID, id) });
+    // SAFETY: lane 0 of an RTCRayN of width 1.
+    let r = unsafe { read_ray(ray, 0) };
     if let Some(first) = data.intersect_from(a.primID, from, r.org, r.dir, r.tnear, r.tfar) {
         // SAFETY: lane 0 < 1, and the offer is made for the packet Embree passed.
         let blockers = Blockers::of(head);

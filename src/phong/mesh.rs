@@ -3,6 +3,8 @@
 //! queries the ray callbacks and shading use. Pure Rust: attaching one to Embree is
 //! [`crate::embree::phong_geometry`].
 
+use std::mem::MaybeUninit;
+
 use glam::{DVec3, Vec3};
 use multiversion::multiversion;
 
@@ -496,6 +498,24 @@ impl PhongMesh {
             on_test(PatchTest { prim: item, tnear, tmax: tfar, outcome, hull_tested });
             return h.map(|h| self.prim_hit(p, item, h));
         }
+        self.intersect_cluster_from(item, origin, org, dir, tnear, tfar, on_test)
+    }
+
+    /// [`PhongMesh::intersect_primitive_from`] on a cluster: out of line, so that the route of
+    /// one patch per primitive (the default) keeps nothing in memory for it.
+    #[inline(never)]
+    #[allow(clippy::too_many_arguments)]
+    fn intersect_cluster_from(
+        &self,
+        item: u32,
+        origin: Option<OriginPrim>,
+        org: Vec3,
+        dir: Vec3,
+        tnear: f32,
+        tfar: f32,
+        mut on_test: impl FnMut(PatchTest),
+    ) -> Option<PrimHit> {
+        let (o, d) = (V3::from(org), V3::from(dir));
         let c = self.clusters.get(item as usize)?;
         // Compute the entries, and the members entered, nearest first (ties by lane).
         let entries = cluster_entries(c.hull(), org, dir, tnear, tfar);
@@ -597,31 +617,54 @@ impl PhongMesh {
         let Some(p) = self.patches.get(item as usize) else { return hits };
         // Compute the lanes to test: active, and not settled by their origin (a zero direction
         // turns a lane away as bad input inside the kernel).
-        let mut block = *rays;
-        let live: [bool; LANES] = std::array::from_fn(|i| {
+        let mut live = active;
+        for i in 0..LANES {
+            if !(active[i] && origin[i].is_some_and(|o| o.prim == item)) {
+                continue;
+            }
             let (o, d) = ray(i);
-            active[i]
-                && !self.leaves_origin(item, origin[i], V3::from(o), V3::from(d), rays.tmin[i], rays.tmax[i])
-        });
+            if self.leaves_origin(item, origin[i], V3::from(o), V3::from(d), rays.tmin[i], rays.tmax[i]) {
+                live[i] = false;
+            }
+        }
         // Every lane settled by its origin: no kernel run.
         if !live.contains(&true) {
             return hits;
         }
-        for i in (0..LANES).filter(|&i| !live[i]) {
-            (block.dir[0][i], block.dir[1][i], block.dir[2][i]) = (0.0, 0.0, 0.0);
+        // The lanes left out get a zero direction, in a copy made only when one of them has
+        // another (a packet callback's inactive lanes are zero already).
+        let moving = |i: usize| rays.dir[0][i] != 0.0 || rays.dir[1][i] != 0.0 || rays.dir[2][i] != 0.0;
+        let mut block = MaybeUninit::uninit();
+        let rays = if (0..LANES).any(|i| !live[i] && moving(i)) {
+            let block = block.write(*rays);
+            for i in (0..LANES).filter(|&i| !live[i]) {
+                (block.dir[0][i], block.dir[1][i], block.dir[2][i]) = (0.0, 0.0, 0.0);
+            }
+            &*block
+        } else {
+            rays
+        };
+        let answers = certified_lanes(p, rays);
+        // Most calls find every lane turned away: one comparison of the 8 decisions.
+        if answers.decision == [LaneDecision::Miss; LANES] {
+            return hits;
         }
-        let answers = certified_lanes(p, &block);
-        for i in (0..LANES).filter(|&i| live[i]) {
+        // Compute the live lanes' hits (a miss leaves the lane's `None`).
+        for i in 0..LANES {
             let hit = match answers.decision[i] {
-                LaneDecision::Miss => None,
-                LaneDecision::Hit => answers.hit(i),
+                _ if !live[i] => continue,
+                LaneDecision::Miss => continue,
+                LaneDecision::Hit => PatchHit { t: answers.t[i], u: answers.u[i], v: answers.v[i] },
                 LaneDecision::Unsure => {
                     let (o, d) = ray(i);
                     let (lo, hi) = (rays.tmin[i], rays.tmax[i]);
-                    intersect_in_hull_traced(p, V3::from(o), V3::from(d), lo, hi, self.method).0
+                    match intersect_in_hull_traced(p, V3::from(o), V3::from(d), lo, hi, self.method).0 {
+                        Some(h) => h,
+                        None => continue,
+                    }
                 }
             };
-            hits[i] = hit.map(|h| self.prim_hit(p, item, h));
+            hits[i] = Some(self.prim_hit(p, item, hit));
         }
         hits
     }
