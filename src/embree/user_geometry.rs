@@ -516,7 +516,8 @@ struct OccludedOffer {
 impl Offer for OccludedOffer {
     #[inline(always)]
     unsafe fn offer(&mut self, lane: usize, r: &LaneRay, h: &PrimHit) -> bool {
-        // SAFETY: as in `IntersectOffer::offer`, with `ray` the callback's RTCRayN.
+        // SAFETY: as in `IntersectOffer::offer`, with `ray` the callback's RTCRayN; `blockers`
+        // was made for the query this callback runs under (`Blockers::of`).
         unsafe {
             let a = &*self.args;
             let cand = self.cand.soa();
@@ -620,7 +621,8 @@ struct OccludedOne {
 impl Offer for OccludedOne {
     #[inline(always)]
     unsafe fn offer(&mut self, _lane: usize, r: &LaneRay, h: &PrimHit) -> bool {
-        // SAFETY: as in `IntersectOne::offer`, with `ray` the callback's RTCRayN of width 1.
+        // SAFETY: as in `IntersectOne::offer`, with `ray` the callback's RTCRayN of width 1;
+        // `blockers` as in `OccludedOffer::offer`.
         unsafe {
             let a = &*self.args;
             let ray = Soa { base: a.ray as *mut u32, n: 1 };
@@ -1021,8 +1023,9 @@ unsafe fn occluded_one<T: UserPrimitives>(
     // SAFETY: lane 0 of an RTCRayN of width 1.
     let r = unsafe { read_ray(ray, 0) };
     if let Some(first) = data.intersect_from(a.primID, from, r.org, r.dir, r.tnear, r.tfar) {
-        // SAFETY: lane 0 < 1, and the offer is made for the packet Embree passed.
         let blockers = Blockers::of(head);
+        // SAFETY: lane 0 < 1, and the offer is made for the packet Embree passed, its blockers
+        // for the query it runs under.
         unsafe { offer_hits(data, a.primID, 0, from, ray, first, &mut OccludedOne { args, blockers }) }
     }
 }
