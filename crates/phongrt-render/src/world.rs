@@ -1299,6 +1299,13 @@ pub const LIFT_CUTOFF: f32 = 0.1;
 /// The most hits on its own mesh's bumps a shadow ray passes (see [`Terminator::Lift`]).
 pub const MAX_BUMP_HITS: usize = 4;
 
+/// How far past the bump cap a recorded blocker's `t` must lie to settle
+/// [`World::passes_own_bumps`] on its own: a factor far above the relative error in `t` of the
+/// f32 patch solve outside grazing (8.6e-7 at most in `phongrt accuracy`'s table), so that the
+/// walk's own queries, which solve the same root again with the same patch test, find it at or
+/// past the cap too.
+const BLOCKER_T_SLACK: f32 = 1.0 + 1e-4;
+
 /// A ray parameter `cap` past which no point of the ray `(o, dir)` passes the bump pass's tests
 /// of `b` at the shading point `p` with shading normal `n`: for every `t >= cap`, with
 /// `d = o + t * dir - p` as f32 computes it, `d.length() > b.reach` or `d.dot(n) > b.height`
@@ -1316,13 +1323,6 @@ pub const MAX_BUMP_HITS: usize = 4;
 ///   `γ3 |d|₁ |n|∞`, so (`|n|∞ <= 1` to rounding) the computed `d.dot(n)` is off by less than
 ///   `(ε / 2) (|o|₁ + |p|₁ + t |dir|₁)`, and above `height` for
 ///   `t >= (height - (o - p)·n + ε (|o|₁ + |p|₁)) / (dir·n - ε |dir|₁)`.
-/// How far past the bump cap a recorded blocker's `t` must lie to settle
-/// [`World::passes_own_bumps`] on its own: a factor far above the relative error in `t` of the
-/// f32 patch solve outside grazing (8.6e-7 at most in `phongrt accuracy`'s table), so that the
-/// walk's own queries, which solve the same root again with the same patch test, find it at or
-/// past the cap too.
-const BLOCKER_T_SLACK: f32 = 1.0 + 1e-4;
-
 fn bump_cap(p: Vec3, n: Vec3, b: &BumpBound, o: Vec3, dir: Vec3) -> f32 {
     const EPS: f64 = 1e-5;
     let (p, n, o, dir) = (p.as_dvec3(), n.as_dvec3(), o.as_dvec3(), dir.as_dvec3());
