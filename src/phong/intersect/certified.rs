@@ -31,8 +31,7 @@ pub(super) enum Proofs {
 /// Project the patch along the ray: `π(u, v) = (n1·P(u,v), n2·P(u,v))`, with `n1, n2` the ray's
 /// two planes. The ray meets the surface at `(u, v)` exactly where `π(u, v) = π(o)`. Two
 /// certificates prove `π` one-to-one on a convex region (so that the ray meets that part of the
-/// surface at most once, and a converged Newton root in it is *the* answer); the second is tried
-/// where the first fails:
+/// surface at most once, and a converged Newton root in it is *the* answer):
 ///
 /// - *Positive definite*, on `R`, the domain enlarged by 1.25 about its centroid: if the
 ///   symmetric part of `J0⁻¹ J(u, v)` is positive definite over `R` (`J` the Jacobian of `π`,
@@ -49,6 +48,13 @@ pub(super) enum Proofs {
 ///   (the exact range of `det J` over the domain straddles zero), and each enlargement of its
 ///   region refuses more.
 ///
+/// The answer does not depend on which certificate proved it: a converged root inside the
+/// domain is the answer under either, and one outside is decided by the positive-definite
+/// certificate where it holds, the det-sign one where it does not. The det-sign certificate is
+/// the cheaper, so it is computed first, and the positive-definite one only for a root outside
+/// the domain or where det-sign fails (the packet
+/// kernel, [`super::lanes`], computes both on all its lanes and gives the same answers).
+///
 /// `π(u, v) - π(o)` is the pair of conics `(F, G)` of [`Projected`], so the Jacobian, the
 /// certificates and Newton's iteration all run in the plane on their 12 scalar coefficients
 /// (the analytic fallback reuses them); `t` is the surface point's projection on the ray.
@@ -62,31 +68,99 @@ pub(super) fn certified_newton<T: Real>(
     tmax: T,
     proofs: Proofs,
 ) -> Option<Option<PatchHit<T>>> {
-    // Compute the certificate, then the root in the plane, then its point in space.
-    let proof = proof_on_region(pr, proofs)?;
-    let (u, v) = flat_start(pr)?;
-    let (u, v, converged) = newton_plane(pr, u, v)?;
-    // The ray parameter of the surface point: its projection on the ray.
-    let mut t = (p.eval_local(u, v) - o).dot(d) / d.dot(d);
-    // A hit: one Newton step on (u, v, t) in space. Its correction is computed from a residual
-    // that is already at rounding level, so t ends within about an ulp of the f64 answer.
-    let (mut u, mut v) = (u, v);
-    if converged && inside(u, v) {
-        (u, v, t) = newton_step(p, o, d, u, v, t)?;
+    // Compute the cheaper certificate first: the det-sign one on the domain. A root it proves
+    // inside the domain is the answer whichever certificate proved it (the same Newton
+    // iterates), so the positive-definite one is computed only where a root lies outside.
+    let first = first_proof(pr, proofs)?;
+    let (u, v, t, converged) = newton_root(p, o, d, pr)?;
+    if !converged || !on_ray(p, o, d, u, v, t) {
+        return None;
     }
-    // The root must be converged and on the ray to rounding. Inside the proof's region (with
-    // room for its error) it is the region's only root. Outside it is still the only one there
-    // when the certificate also holds on the hull of the region and the root: a proven miss.
-    let slack = T::from_f64(0.005);
+    let proof = match first {
+        First::DetSign(ds) => {
+            if in_region(u, v, T::ZERO) {
+                return decide(u, v, t, tmin, tmax);
+            }
+            // Outside the domain: the positive-definite certificate where it holds, as below.
+            match positive_definite(pr) {
+                Some(anchor) => Proof::PositiveDefinite(anchor),
+                None => Proof::DetSign(ds),
+            }
+        }
+        First::Other(proof) => proof,
+    };
+    // Inside the proof's region (with room for its error) the root is the region's only one.
+    // Outside it is still the only one there when the certificate also holds on the hull of
+    // the region and the root: a proven miss.
     let lo = match proof {
         Proof::PositiveDefinite(_) => region::<T>().0,
         Proof::DetSign(_) => T::ZERO,
     };
-    let in_r = u >= lo + slack && v >= lo + slack && u + v <= T::ONE - lo - slack;
-    if !converged || !on_ray(p, o, d, u, v, t) || !(in_r || proof.holds_to(pr, u, v)) {
+    if !(in_region(u, v, lo) || proof.holds_to(pr, u, v)) {
         return None;
     }
     decide(u, v, t, tmin, tmax)
+}
+
+/// Whether `(u, v)` lies inside the triangle with corners `(lo, lo)`, `(1 - 2 lo, lo)`,
+/// `(lo, 1 - 2 lo)` (the domain for `lo = 0`, `R` for `region().0`) with room for the root's
+/// error.
+#[inline(always)]
+fn in_region<T: Real>(u: T, v: T, lo: T) -> bool {
+    let slack = T::from_f64(0.005);
+    u >= lo + slack && v >= lo + slack && u + v <= T::ONE - lo - slack
+}
+
+/// The root in the plane from the flat triangle's hit, then its point in space: `(u, v, t)` and
+/// whether Newton converged. A converged root inside the domain takes one Newton step on
+/// `(u, v, t)` in space: its correction is computed from a residual that is already at
+/// rounding level, so `t` ends within about an ulp of the f64 answer.
+#[inline(always)]
+fn newton_root<T: Real>(p: &Patch<T>, o: V3<T>, d: V3<T>, pr: &Projected<T>) -> Option<(T, T, T, bool)> {
+    let (u, v) = flat_start(pr)?;
+    let (u, v, converged) = newton_plane(pr, u, v)?;
+    // The ray parameter of the surface point: its projection on the ray.
+    let t = (p.eval_local(u, v) - o).dot(d) / d.dot(d);
+    if converged && inside(u, v) {
+        let (u, v, t) = newton_step(p, o, d, u, v, t)?;
+        return Some((u, v, t, converged));
+    }
+    Some((u, v, t, converged))
+}
+
+/// The first proof that holds: the det-sign certificate on the domain (where `proofs` allows
+/// it), else the positive-definite one on `R`.
+enum First<T> {
+    DetSign(DetSign<T>),
+    Other(Proof<T>),
+}
+
+/// [`First`]: the det-sign certificate where `proofs` allows it and it holds, the
+/// positive-definite one where only it holds, `None` where neither does. A fold is refused
+/// before either: where `det J` clearly has opposite signs at the domain's corner `(0, 0)` and
+/// at the centroid ([`folds_between`]), neither can hold, and the caller goes to the analytic
+/// method for the price of one 2×2 determinant.
+#[inline(always)]
+fn first_proof<T: Real>(pr: &Projected<T>, proofs: Proofs) -> Option<First<T>> {
+    let (_, det0) = centroid_jacobian(pr);
+    // `det J(0, 0)`: J there is `[fd, fe, gd, ge]`, as in `domain_jacobians`.
+    let corner = pr.f.k[3] * pr.g.k[4] - pr.f.k[4] * pr.g.k[3];
+    if folds_between(pr, corner, det0) {
+        return None;
+    }
+    if proofs == Proofs::WithDetSign {
+        if let Some(ds) = det_sign_on_domain(pr, domain_jacobians(pr)) {
+            return Some(First::DetSign(ds));
+        }
+    }
+    positive_definite(pr).map(|anchor| First::Other(Proof::PositiveDefinite(anchor)))
+}
+
+/// The positive-definite certificate on `R` ([`positive_definite_on_region`]).
+#[inline(always)]
+fn positive_definite<T: Real>(pr: &Projected<T>) -> Option<Anchor<T>> {
+    let (j0, det0) = centroid_jacobian(pr);
+    positive_definite_on_region(pr, j0, det0)
 }
 
 /// A proof that the projection is one-to-one on `R`, with what extends it to a root outside `R`.
@@ -104,27 +178,6 @@ impl<T: Real> Proof<T> {
             Proof::PositiveDefinite(anchor) => certificate_holds(anchor, jacobian(pr, u, v)),
             Proof::DetSign(ds) => ds.holds_to(jacobian(pr, u, v), u, v),
         }
-    }
-}
-
-/// The first of `proofs` that holds on `R`. A fold is refused first, before either
-/// certificate: where `det J` clearly has opposite signs at the domain's corner `(0, 0)` and at
-/// the centroid ([`folds_between`]), neither can hold, and the caller goes to the analytic
-/// method for the price of one 2×2 determinant.
-#[inline(always)]
-fn proof_on_region<T: Real>(pr: &Projected<T>, proofs: Proofs) -> Option<Proof<T>> {
-    let (j0, det0) = centroid_jacobian(pr);
-    // `det J(0, 0)`: J there is `[fd, fe, gd, ge]`, as in `domain_jacobians`.
-    let corner = pr.f.k[3] * pr.g.k[4] - pr.f.k[4] * pr.g.k[3];
-    if folds_between(pr, corner, det0) {
-        return None;
-    }
-    if let Some(anchor) = positive_definite_on_region(pr, j0, det0) {
-        return Some(Proof::PositiveDefinite(anchor));
-    }
-    match proofs {
-        Proofs::PositiveDefinite => None,
-        Proofs::WithDetSign => det_sign_on_domain(pr, domain_jacobians(pr)).map(Proof::DetSign),
     }
 }
 
@@ -298,8 +351,8 @@ mod tests {
     /// The det-sign certificate settles rays that the positive-definite one leaves to the
     /// analytic method (patches that curve away from the ray without folding), hits and misses
     /// both, with the analytic method's answers; where the positive-definite certificate holds,
-    /// the answer is the same bit for bit (it is tried first, so the packet kernel, which has
-    /// only that one, still agrees with the one-ray path).
+    /// the answer is the same bit for bit (whichever certificate is computed first, a root is
+    /// decided as the positive-definite one decides it).
     #[test]
     fn det_sign_settles_what_the_positive_definite_certificate_leaves() {
         let mut rng = SplitMix(41);

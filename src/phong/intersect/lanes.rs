@@ -695,7 +695,7 @@ impl DetSignLanes {
     }
 }
 
-/// The proofs that the projection is one-to-one, per lane, as `proof_on_region` picks them:
+/// The proofs that the projection is one-to-one, per lane, as `certified_newton` decides by them:
 /// the positive-definite certificate on `R` where it holds, the det-sign certificate on the
 /// domain where it does not.
 struct ProofLanes {
@@ -707,7 +707,7 @@ struct ProofLanes {
     ds: DetSignLanes,
 }
 
-/// `proof_on_region` with `Proofs::WithDetSign` on the live lanes; lanes that neither
+/// The certificates of `certified_newton` with `Proofs::WithDetSign` on the live lanes; lanes that neither
 /// certificate proves are handed to the scalar path.
 #[inline(always)]
 fn proof_lanes(pr: &ProjLanes, lanes: &mut Lanes) -> ProofLanes {
