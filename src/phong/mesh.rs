@@ -591,8 +591,8 @@ impl PhongMesh {
     /// [`PhongMesh::intersect_primitive_from`] for the lanes of `rays` where `active`, lane `i`
     /// starting at `origin[i]` when given: all of them at once (see [`certified_lanes`]) when
     /// [`PhongMesh::tests_lanes_together`], lane by lane otherwise, with the same answers
-    /// either way. Lanes the lane kernel leaves unsure are solved by the scalar path, the hull
-    /// already passed; a lane whose origin patch [`leaves_patch`] settles is no lane of the
+    /// either way. Lanes the lane kernel leaves unsure are solved by the scalar path from where
+    /// the kernel stopped ([`LaneAnswers::unsure_answer`](crate::phong::intersect::LaneAnswers::unsure_answer)); a lane whose origin patch [`leaves_patch`] settles is no lane of the
     /// kernel.
     pub fn intersect_lanes(
         &self,
@@ -658,7 +658,7 @@ impl PhongMesh {
                 LaneDecision::Unsure => {
                     let (o, d) = ray(i);
                     let (lo, hi) = (rays.tmin[i], rays.tmax[i]);
-                    match intersect_in_hull_traced(p, V3::from(o), V3::from(d), lo, hi, self.method).0 {
+                    match answers.unsure_answer(p, i, V3::from(o), V3::from(d), lo, hi).0 {
                         Some(h) => h,
                         None => continue,
                     }

@@ -12,12 +12,13 @@
 use multiversion::target::match_target;
 use multiversion::{inherit_target, multiversion};
 
+use super::conic::Projected;
 use super::hull::hits_hull;
 #[cfg(target_arch = "x86_64")]
 use super::hull::hits_hull_v3;
 #[cfg(test)]
 use super::intersect_with;
-use super::{solve_local, to_local, Method, PatchHit, TestOutcome};
+use super::{analytic_tail, solve_local, to_local, Method, PatchHit, TestOutcome};
 use crate::phong::patch::Patch;
 use crate::phong::real::{Real, V3};
 
@@ -72,6 +73,24 @@ pub(super) fn intersect_dispatched<T: Real>(
         }
     }
     solve(p, org, dir, tmin, tmax, method)
+}
+
+/// The certified method's answer for a ray both its certificates refused, from the ray's
+/// projected conics `pr` (as [`super::conic::project`] gives them for the local ray): the
+/// analytic method and its f64 retry, in the version this CPU runs best (as
+/// [`intersect_dispatched`]). The same answer as [`intersect_dispatched`] with
+/// [`Method::Certified`] gives such a ray, bit for bit.
+#[multiversion(targets("x86_64+avx2+fma"))]
+pub(super) fn refused_dispatched<T: Real>(
+    p: &Patch<T>,
+    org: V3<T>,
+    dir: V3<T>,
+    tmin: T,
+    tmax: T,
+    pr: &Projected<T>,
+) -> (Option<PatchHit<T>>, TestOutcome) {
+    let (o, d) = to_local(p, org, dir);
+    analytic_tail(p, (org, dir), o, d, pr, tmin, tmax)
 }
 
 /// [`intersect_with`] in its baseline version, whatever the CPU: for comparing the two.

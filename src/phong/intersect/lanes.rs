@@ -10,8 +10,10 @@
 //! [`Real::max`]), the same constants, so a lane it decides has bit for bit the scalar path's
 //! answer. What it does not decide (both certificates fail, Newton does not converge, the root
 //! lies in the band where the scalar path asks f64, a certified miss on a sliver seen from afar)
-//! it leaves [`LaneDecision::Unsure`], for the caller's scalar
-//! [`intersect_in_hull_traced`](super::intersect_in_hull_traced), which also has the hull passed.
+//! it leaves [`LaneDecision::Unsure`], for the scalar path through
+//! [`LaneAnswers::unsure_answer`]: the analytic method at once, from the lane's projected conics,
+//! where both certificates refused it, [`intersect_in_hull_traced`](super::intersect_in_hull_traced)
+//! (the hull passed) otherwise.
 
 // The lane loops index every array by the lane: the form the vectoriser turns into one
 // instruction per operation.
@@ -21,8 +23,9 @@ use std::ops::{Add, BitAnd, BitOr, Div, Mul, Neg, Not, Sub};
 
 use multiversion::multiversion;
 
+use super::conic::{Conic, Projected};
 use super::domain::{domain_tolerance, edge_band};
-use super::PatchHit;
+use super::{dispatch, intersect_in_hull_traced, Method, PatchHit, TestOutcome};
 use crate::phong::patch::Patch;
 use crate::phong::real::{Real, V3};
 
@@ -65,12 +68,44 @@ pub struct LaneAnswers {
     pub u: [f32; LANES],
     /// The hits' `v`.
     pub v: [f32; LANES],
+    /// Bit `i` set where lane `i` is unsure because both certificates refused it.
+    refused: u32,
+    /// The projected conics' 12 coefficients (`F`'s, then `G`'s), per lane, where `refused`.
+    conics: [[f32; LANES]; 12],
 }
 
 impl LaneAnswers {
     /// Lane `i`'s hit, where [`LaneAnswers::decision`] says [`LaneDecision::Hit`].
     pub fn hit(&self, i: usize) -> Option<PatchHit<f32>> {
         (self.decision[i] == LaneDecision::Hit).then(|| PatchHit { t: self.t[i], u: self.u[i], v: self.v[i] })
+    }
+
+    /// Lane `i`'s answer where [`LaneAnswers::decision`] says [`LaneDecision::Unsure`], with its
+    /// outcome: the scalar certified path's on `p` (as
+    /// [`intersect_in_hull_traced`](super::intersect_in_hull_traced) with
+    /// [`Method::Certified`]), for the lane's world-space ray `(org, dir)` and interval
+    /// `(tmin, tmax)` as given to [`certified_lanes`]. Where the kernel found both certificates
+    /// refused, the scalar path starts where it stopped: the analytic method on the lane's
+    /// projected conics (the scalar projection's bits), with no second projection and no second
+    /// certificate.
+    pub fn unsure_answer(
+        &self,
+        p: &Patch<f32>,
+        i: usize,
+        org: V3<f32>,
+        dir: V3<f32>,
+        tmin: f32,
+        tmax: f32,
+    ) -> (Option<PatchHit<f32>>, TestOutcome) {
+        if self.refused >> i & 1 == 0 {
+            return intersect_in_hull_traced(p, org, dir, tmin, tmax, Method::Certified);
+        }
+        let k = |j: usize| self.conics[j][i];
+        let pr = Projected {
+            f: Conic { k: [k(0), k(1), k(2), k(3), k(4), k(5)] },
+            g: Conic { k: [k(6), k(7), k(8), k(9), k(10), k(11)] },
+        };
+        dispatch::refused_dispatched(p, org, dir, tmin, tmax, &pr)
     }
 }
 
@@ -114,7 +149,14 @@ fn solve_for_cpu(p: &Patch<f32>, hull: &HullLanes, rays: &LaneRays) -> LaneAnswe
 
 impl LaneAnswers {
     fn all(d: LaneDecision) -> Self {
-        LaneAnswers { decision: [d; LANES], t: [0.0; LANES], u: [0.0; LANES], v: [0.0; LANES] }
+        LaneAnswers {
+            decision: [d; LANES],
+            t: [0.0; LANES],
+            u: [0.0; LANES],
+            v: [0.0; LANES],
+            refused: 0,
+            conics: [[0.0; LANES]; 12],
+        }
     }
 }
 
@@ -418,6 +460,8 @@ struct Lanes {
     live: M,
     /// Left to the scalar path.
     unsure: M,
+    /// Left to the scalar path because both certificates refused them.
+    refused: M,
 }
 
 impl Lanes {
@@ -469,7 +513,7 @@ fn solve_lanes(p: &Patch<f32>, hull: &HullLanes, rays: &LaneRays) -> LaneAnswers
     let mut out = LaneAnswers::all(LaneDecision::Miss);
     // Compute the projection; a direction whose length over- or underflows is bad input too.
     let Some((pr, ok)) = project_lanes(p, o, d) else { return out };
-    let mut lanes = Lanes { live: passed & ok, unsure: M::none() };
+    let mut lanes = Lanes { live: passed & ok, unsure: M::none(), refused: M::none() };
     let (u, v, t) = certified_root(p, o, d, &pr, &mut lanes);
     // Compute the decision, as `decide`, and leave a miss on a sliver seen from afar to the
     // scalar path (it asks f64).
@@ -494,6 +538,13 @@ fn solve_lanes(p: &Patch<f32>, hull: &HullLanes, rays: &LaneRays) -> LaneAnswers
         };
     }
     (out.t, out.u, out.v) = (t.0, cu.0, cv.0);
+    // The refused lanes' conics, for the scalar path's analytic method.
+    out.refused = lanes.refused.bits();
+    if out.refused != 0 {
+        for j in 0..6 {
+            (out.conics[j], out.conics[j + 6]) = (pr.f[j].0, pr.g[j].0);
+        }
+    }
     out
 }
 
@@ -733,6 +784,7 @@ fn proof_lanes(pr: &ProjLanes, lanes: &mut Lanes) -> ProofLanes {
         let z = F::splat(0.0);
         (DetSignLanes { corners: [[z; 4]; 3], sign: z, k2: z }, M::none())
     };
+    lanes.refused = lanes.live & rest & !holds;
     lanes.give_up(rest & !holds);
     ProofLanes { pd, anchor, ds }
 }

@@ -31,7 +31,7 @@ use super::patch::Patch;
 use super::real::{Real, V3};
 use analytic::{analytic_local, analytic_projected};
 use certified::{certified_newton, Proofs};
-use conic::project;
+use conic::{project, Projected};
 use domain::domain_tolerance;
 #[cfg(test)]
 use hull::hits_hull;
@@ -259,7 +259,24 @@ fn polished<T: Real>(
             return (answer, outcome);
         }
     }
-    let (hit, ambiguous) = analytic_projected(p, o, d, &pr, tmin, tmax, true);
+    analytic_tail(p, (org, dir), o, d, &pr, tmin, tmax)
+}
+
+/// The analytic method on the ray's conics `pr` where no certificate settled the ray (the tail
+/// of [`polished`]), with the f64 retry from the world-space ray `world`. Inlined, as
+/// [`polished`].
+#[inline(always)]
+fn analytic_tail<T: Real>(
+    p: &Patch<T>,
+    world: (V3<T>, V3<T>),
+    o: V3<T>,
+    d: V3<T>,
+    pr: &Projected<T>,
+    tmin: T,
+    tmax: T,
+) -> (Option<PatchHit<T>>, TestOutcome) {
+    let (org, dir) = world;
+    let (hit, ambiguous) = analytic_projected(p, o, d, pr, tmin, tmax, true);
     // In f32, a miss that rested on a step within rounding (near tangency, a root at the
     // domain's edge, a sliver seen from afar), or a hit on an unconverged root at near
     // tangency, is decided again in f64 on the same f32 surface: the f32 solve stays the
