@@ -48,12 +48,11 @@ pub(super) enum Proofs {
 ///   (the exact range of `det J` over the domain straddles zero), and each enlargement of its
 ///   region refuses more.
 ///
-/// The answer does not depend on which certificate proved it: a converged root inside the
-/// domain is the answer under either, and one outside is decided by the positive-definite
-/// certificate where it holds, the det-sign one where it does not. The det-sign certificate is
-/// the cheaper, so it is computed first, and the positive-definite one only for a root outside
-/// the domain or where det-sign fails (the packet
-/// kernel, [`super::lanes`], computes both on all its lanes and gives the same answers).
+/// The det-sign certificate is the cheaper, so it is computed first, and the positive-definite
+/// one only where it fails or for a root outside the domain that it does not extend to. A
+/// converged root inside the domain is the answer whichever certificate proves it; one outside
+/// is a miss under either. The packet kernel ([`super::lanes`]) computes both on all its lanes
+/// and decides a lane only as this path does.
 ///
 /// `π(u, v) - π(o)` is the pair of conics `(F, G)` of [`Projected`], so the Jacobian, the
 /// certificates and Newton's iteration all run in the plane on their 12 scalar coefficients
@@ -69,34 +68,30 @@ pub(super) fn certified_newton<T: Real>(
     proofs: Proofs,
 ) -> Option<Option<PatchHit<T>>> {
     // Compute the cheaper certificate first: the det-sign one on the domain. A root it proves
-    // inside the domain is the answer whichever certificate proved it (the same Newton
-    // iterates), so the positive-definite one is computed only where a root lies outside.
+    // inside the domain is the answer whichever certificate proves it (the same Newton
+    // iterates), so the positive-definite one is computed only for a root outside the domain
+    // that the det-sign certificate does not extend to.
     let first = first_proof(pr, proofs)?;
     let (u, v, t, converged) = newton_root(p, o, d, pr)?;
     if !converged || !on_ray(p, o, d, u, v, t) {
         return None;
     }
-    let proof = match first {
+    let anchor = match first {
         First::DetSign(ds) => {
-            if in_region(u, v, T::ZERO) {
+            // Inside the domain, or outside where the det-sign certificate extends to the
+            // root: proven (outside, a miss: the root is the only one on the hull of the domain
+            // and the root). Else the positive-definite certificate, where it holds.
+            if in_region(u, v, T::ZERO) || ds.holds_to(jacobian(pr, u, v), u, v) {
                 return decide(u, v, t, tmin, tmax);
             }
-            // Outside the domain: the positive-definite certificate where it holds, as below.
-            match positive_definite(pr) {
-                Some(anchor) => Proof::PositiveDefinite(anchor),
-                None => Proof::DetSign(ds),
-            }
+            positive_definite(pr)?
         }
-        First::Other(proof) => proof,
+        First::PositiveDefinite(anchor) => anchor,
     };
-    // Inside the proof's region (with room for its error) the root is the region's only one.
-    // Outside it is still the only one there when the certificate also holds on the hull of
-    // the region and the root: a proven miss.
-    let lo = match proof {
-        Proof::PositiveDefinite(_) => region::<T>().0,
-        Proof::DetSign(_) => T::ZERO,
-    };
-    if !(in_region(u, v, lo) || proof.holds_to(pr, u, v)) {
+    // Inside `R` (with room for the root's error) the root is its only one. Outside it is still
+    // the only one there when the certificate also holds on the hull of `R` and the root (the
+    // matrices that pass form a convex cone and `J` is linear): a proven miss.
+    if !(in_region(u, v, region::<T>().0) || certificate_holds(&anchor, jacobian(pr, u, v))) {
         return None;
     }
     decide(u, v, t, tmin, tmax)
@@ -132,7 +127,7 @@ fn newton_root<T: Real>(p: &Patch<T>, o: V3<T>, d: V3<T>, pr: &Projected<T>) -> 
 /// it), else the positive-definite one on `R`.
 enum First<T> {
     DetSign(DetSign<T>),
-    Other(Proof<T>),
+    PositiveDefinite(Anchor<T>),
 }
 
 /// [`First`]: the det-sign certificate where `proofs` allows it and it holds, the
@@ -153,7 +148,7 @@ fn first_proof<T: Real>(pr: &Projected<T>, proofs: Proofs) -> Option<First<T>> {
             return Some(First::DetSign(ds));
         }
     }
-    positive_definite(pr).map(|anchor| First::Other(Proof::PositiveDefinite(anchor)))
+    positive_definite(pr).map(First::PositiveDefinite)
 }
 
 /// The positive-definite certificate on `R` ([`positive_definite_on_region`]).
@@ -161,24 +156,6 @@ fn first_proof<T: Real>(pr: &Projected<T>, proofs: Proofs) -> Option<First<T>> {
 fn positive_definite<T: Real>(pr: &Projected<T>) -> Option<Anchor<T>> {
     let (j0, det0) = centroid_jacobian(pr);
     positive_definite_on_region(pr, j0, det0)
-}
-
-/// A proof that the projection is one-to-one on `R`, with what extends it to a root outside `R`.
-enum Proof<T> {
-    PositiveDefinite(Anchor<T>),
-    DetSign(DetSign<T>),
-}
-
-impl<T: Real> Proof<T> {
-    /// Whether the proof extends to the hull of `R` and the point `(u, v)`.
-    #[inline(always)]
-    fn holds_to(&self, pr: &Projected<T>, u: T, v: T) -> bool {
-        match self {
-            // The matrices that pass form a convex cone and J is linear.
-            Proof::PositiveDefinite(anchor) => certificate_holds(anchor, jacobian(pr, u, v)),
-            Proof::DetSign(ds) => ds.holds_to(jacobian(pr, u, v), u, v),
-        }
-    }
 }
 
 /// The answer for a proven root `(u, v, t)`, R's only one: a hit inside the domain and the interval,
