@@ -1,7 +1,7 @@
 //! Eight lanes at once: the certified method of [`Method::Certified`](super::Method::Certified)
 //! for up to [`LANES`] rays against one f32 patch, with every step (the local frame, the hull and
-//! prism test, the projection, the positive-definite certificate and where it fails the
-//! det-sign one, Newton in the plane and the Newton step in space) run on all lanes together, as
+//! prism test, the projection, the det-sign certificate and where it fails the
+//! positive-definite one, Newton in the plane and the Newton step in space) run on all lanes together, as
 //! plain loops over fixed-size arrays that the compiler vectorises: AVX2 (one register of 8
 //! lanes) or SSE 4.1 (two of 4), chosen at run time, or the baseline target's own vectors.
 //!
@@ -746,23 +746,10 @@ impl DetSignLanes {
     }
 }
 
-/// The proofs that the projection is one-to-one, per lane, as `certified_newton` decides by them:
-/// the positive-definite certificate on `R` where it holds, the det-sign certificate on the
-/// domain where it does not.
-struct ProofLanes {
-    /// The lanes proven by the positive-definite certificate (the others live ones by det-sign).
-    pd: M,
-    /// The positive-definite certificate's anchor.
-    anchor: [F; 4],
-    /// The det-sign certificate (meaningful on the live lanes outside `pd`).
-    ds: DetSignLanes,
-}
-
-/// The certificates of `certified_newton` with `Proofs::WithDetSign` on the live lanes; lanes that neither
-/// certificate proves are handed to the scalar path.
+/// The positive-definite certificate on `R` (`positive_definite_on_region` at the centroid's
+/// Jacobian) on every lane: the lanes where it holds, and its anchor.
 #[inline(always)]
-fn proof_lanes(pr: &ProjLanes, lanes: &mut Lanes) -> ProofLanes {
-    // Compute the anchor and the certificate at the region's corners (`one_to_one_on_region`).
+fn positive_definite_lanes(pr: &ProjLanes) -> (M, [F; 4]) {
     let third = F::splat((1.0f64 / 3.0) as f32);
     let j0 = jacobian_lanes(pr, third, third);
     let det0 = j0[0] * j0[3] - j0[1] * j0[2];
@@ -775,18 +762,39 @@ fn proof_lanes(pr: &ProjLanes, lanes: &mut Lanes) -> ProofLanes {
     for (cu, cv) in [(lo, lo), (hi, lo), (lo, hi)] {
         pd = pd & certificate_lanes(&anchor, jacobian_lanes(pr, cu, cv));
     }
-    let pd = lanes.live & pd;
-    // Compute the det-sign certificate where the first fails.
-    let rest = lanes.live & !pd;
-    let (ds, holds) = if rest.any() {
-        det_sign_lanes(pr)
-    } else {
-        let z = F::splat(0.0);
-        (DetSignLanes { corners: [[z; 4]; 3], sign: z, k2: z }, M::none())
-    };
-    lanes.refused = lanes.live & rest & !holds;
-    lanes.give_up(rest & !holds);
-    ProofLanes { pd, anchor, ds }
+    (pd, anchor)
+}
+
+/// The proofs that the projection is one-to-one, per lane, in `certified_newton`'s order: the
+/// det-sign certificate on the domain, and the positive-definite one on `R` where it fails (on
+/// every lane when computed: it may be needed later for a root outside the domain).
+struct ProofLanes {
+    /// The det-sign certificate, and the live lanes it proves.
+    ds: DetSignLanes,
+    by_ds: M,
+    /// The positive-definite certificate, where computed: the lanes it proves, its anchor.
+    pd: Option<(M, [F; 4])>,
+}
+
+/// `first_proof` with `Proofs::WithDetSign` on the live lanes; lanes that neither certificate
+/// proves are handed to the scalar path (as refused).
+#[inline(always)]
+fn proof_lanes(pr: &ProjLanes, lanes: &mut Lanes) -> ProofLanes {
+    let (ds, holds) = det_sign_lanes(pr);
+    let rest = lanes.live & !holds;
+    let pd = rest.any().then(|| positive_definite_lanes(pr));
+    let refused = rest & !pd.map_or(M::none(), |(m, _)| m);
+    lanes.refused = refused;
+    lanes.give_up(refused);
+    ProofLanes { ds, by_ds: lanes.live & holds, pd }
+}
+
+/// `in_region`: inside the triangle with corners `(lo, lo)`, `(1 - 2 lo, lo)`, `(lo, 1 - 2 lo)`
+/// with room for the root's error.
+#[inline(always)]
+fn in_region_lanes(u: F, v: F, lo: f32) -> M {
+    let (lo, slack, one) = (F::splat(lo), F::splat(0.005), F::splat(1.0));
+    u.ge(lo + slack) & v.ge(lo + slack) & (u + v).le(one - lo - slack)
 }
 
 /// `certified_newton` up to `decide`: the certificates, the flat start, Newton in
@@ -809,23 +817,23 @@ fn certified_root(p: &Patch<f32>, o: V, d: V, pr: &ProjLanes, lanes: &mut Lanes)
     let (su, sv, st, ok) = newton_step_lanes(&pl, o, d, u, v, t);
     lanes.give_up(step & !ok);
     let (u, v, t) = (select(step, su, u), select(step, sv, v), select(step, st, t));
-    // The root must be on the ray, and the proof's region's only root: inside the region (`R`
-    // for the positive-definite certificate, the domain for det-sign), or the certificate
-    // extends to it.
-    let slack = F::splat(0.005);
-    let one = F::splat(1.0);
-    let lo = select(proof.pd, F::splat(region().0), zero);
-    let in_r = u.ge(lo + slack) & v.ge(lo + slack) & (u + v).le(one - lo - slack);
-    let beyond = lanes.live & !in_r;
-    let extends = if beyond.any() {
-        let jr = jacobian_lanes(pr, u, v);
-        let by_pd = proof.pd & certificate_lanes(&proof.anchor, jr);
-        let by_ds = !proof.pd & proof.ds.holds_to(jr, u, v);
-        by_pd | by_ds
+    // The root must be on the ray, and the only root of a region the domain is in: the
+    // det-sign lanes' inside the domain or where that certificate extends to it, the others'
+    // (and the det-sign lanes' it does not extend to) inside `R` or where the
+    // positive-definite certificate extends to it.
+    let in_domain = in_region_lanes(u, v, 0.0);
+    let jr = jacobian_lanes(pr, u, v);
+    let ds_out = lanes.live & proof.by_ds & !in_domain;
+    let ds_ok =
+        proof.by_ds & (in_domain | if ds_out.any() { proof.ds.holds_to(jr, u, v) } else { M::none() });
+    let need = lanes.live & !ds_ok;
+    let pd_ok = if need.any() {
+        let (pd, anchor) = proof.pd.unwrap_or_else(|| positive_definite_lanes(pr));
+        need & pd & (in_region_lanes(u, v, region().0) | certificate_lanes(&anchor, jr))
     } else {
         M::none()
     };
-    lanes.give_up(!on_ray_lanes(&pl, o, d, u, v, t) | !(in_r | extends));
+    lanes.give_up(!on_ray_lanes(&pl, o, d, u, v, t) | !(ds_ok | pd_ok));
     (u, v, t)
 }
 
