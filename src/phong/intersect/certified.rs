@@ -51,7 +51,7 @@ pub(super) enum Proofs {
 /// The det-sign certificate is the cheaper, so it is computed first, and the positive-definite
 /// one only where it fails or for a root outside the domain that it does not extend to. A
 /// converged root inside the domain is the answer whichever certificate proves it; one outside
-/// is a miss under either. The packet kernel ([`super::lanes`]) computes both on all its lanes
+/// is a miss under either. The packet kernel ([`super::lanes`]) takes them in the same order
 /// and decides a lane only as this path does.
 ///
 /// `π(u, v) - π(o)` is the pair of conics `(F, G)` of [`Projected`], so the Jacobian, the
