@@ -1,8 +1,9 @@
 //! Eight lanes at once: the certified method of [`Method::Certified`](super::Method::Certified)
 //! for up to [`LANES`] rays against one f32 patch, with every step (the local frame, the hull and
 //! prism test, the projection, the det-sign certificate and where it fails the positive-definite
-//! one, Newton in the plane and the Newton step in space) run on all lanes together, as plain loops over fixed-size arrays that the compiler vectorises: AVX2 (one register of 8
-//! lanes) or SSE 4.1 (two of 4), chosen at run time, or the baseline target's own vectors.
+//! one, Newton in the plane and the Newton step in space) run on all lanes together, as plain
+//! loops over fixed-size arrays that the compiler vectorises: AVX2 (one register of 8 lanes) or
+//! SSE 4.1 (two of 4), chosen at run time, or the baseline target's own vectors.
 //!
 //! Each lane computes exactly what the scalar path computes, in the same order: no fused
 //! operations (Rust never contracts `a * b + c`), the same `min`/`max` (by comparison, as
