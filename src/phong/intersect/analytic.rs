@@ -2,7 +2,7 @@
 //! split into lines, and the lines' intersections with a conic offered as roots.
 
 use super::conic::{
-    adj3, det3, line_conic, project, split_degenerate, trace_prod, Conic, NoLines, Projected,
+    adj3, det3, line_conic, project, split_degenerate, tangency_reach, trace_prod, Conic, NoLines, Projected,
 };
 use super::domain::{clamp_to_triangle, edge_band, inside, near_domain, on_ray};
 use super::newton::newton_step;
@@ -25,7 +25,8 @@ pub(super) struct Ambiguity {
 /// Also says whether the answer is *ambiguous*: it rested on a step whose sign or acceptance
 /// is within rounding (a discriminant near zero, a root just outside the domain or off the ray,
 /// no usable degenerate conic, a Newton step that diverged), so that a higher precision may
-/// decide differently.
+/// decide differently. With `polish` in f32, a ray the lean solve leaves at a near tangency is
+/// not searched further: it is reported as an ambiguous miss, for the caller to decide in f64.
 pub(super) fn analytic_local<T: Real>(
     p: &Patch<T>,
     o: V3<T>,
@@ -70,17 +71,25 @@ pub(super) fn analytic_projected<T: Real>(
     }
     let ray = LocalRay { o, d, tmin, tmax, polish };
     // The lean solve decides the clear cases; what rests on rounding goes the full way below.
+    // Except a near tangency in a coarser precision than f64: it is left undecided (an
+    // ambiguous miss, which the caller decides again in f64, where the lean solve settles it;
+    // cheaper than the full search in f32, which nearly always ends there too).
     if polish {
-        if let Some(answer) = lean(p, &ray, (&cf, nf), (&cg, ng)) {
-            return answer;
+        match lean(p, &ray, (&cf, nf), (&cg, ng)) {
+            Ok(answer) => return answer,
+            Err(Undecided::NearTangent) if T::UNIT_ROUNDOFF.to_f64() > 1e-10 => {
+                return (None, Ambiguity { miss: true, hit: false })
+            }
+            Err(_) => {}
         }
     }
     full_search(p, &ray, &cf, &cg)
 }
 
-/// The full search of [`analytic_projected`], for what the lean solve cannot decide: every
-/// degenerate member of the pencil, best-conditioned first, split into lines whose roots are
-/// offered until one member gives roots. Not inlined: it is the rare path.
+/// The full search of [`analytic_projected`], for what the lean solve cannot decide (but a near
+/// tangency in f32), and for every ray of the unpolished method: every degenerate member of the
+/// pencil, best-conditioned first, split into lines whose roots are offered until one member
+/// gives roots. Not inlined: it is the rare path.
 #[inline(never)]
 #[cold]
 fn full_search<T: Real>(
@@ -292,25 +301,27 @@ impl<T: Real> Search<T> {
 /// member is most clearly a real line pair), its two lines met with the other conic, and Newton
 /// polish of the nearest root in the domain only. `None` where the answer would rest on a step
 /// within rounding (a degenerate or near-flat pencil, no clear line pair, a near tangency, a
-/// spurious root, a polish that diverged): then the full search of [`analytic_projected`]
-/// decides, with its ambiguity flags. The conics come with their sizes ([`Conic::norm`]).
+/// spurious root, a polish that diverged), with the reason ([`Undecided`]): then the full
+/// search of [`analytic_projected`] decides, with its ambiguity flags, or f64 decides. The
+/// conics come with their sizes ([`Conic::norm`]). A line within rounding of tangent to the other
+/// conic whose points stay far from the domain is passed over.
 #[inline(always)]
 fn lean<T: Real>(
     p: &Patch<T>,
     ray: &LocalRay<T>,
     (cf, nf): (&Conic<T>, T),
     (cg, ng): (&Conic<T>, T),
-) -> Option<(Option<PatchHit<T>>, Ambiguity)> {
+) -> Result<(Option<PatchHit<T>>, Ambiguity), Undecided> {
     // Compute one member: every intersection point of the two conics lies on it.
     let (m, n) = (sym_of(cf), sym_of(cg));
-    let (x, near_multiple) = line_pair_root(&m, &n, nf, ng)?;
+    let (x, near_multiple) = line_pair_root(&m, &n, nf, ng).ok_or(Undecided::Other)?;
     let (h, other) = if x.abs() <= T::ONE {
         (std::array::from_fn(|i| x * m[i] + n[i]), cf)
     } else {
         let ix = T::ONE / x;
         (std::array::from_fn(|i| m[i] + ix * n[i]), cg)
     };
-    let lines = split_line_pair(&h)?;
+    let lines = split_line_pair(&h).ok_or(Undecided::Other)?;
     // Compute the roots on its lines near the domain, gated by the distance to the ray.
     let s = Search::<T>::new(near_multiple);
     let (tol2, polish_band) = (s.size_tol * s.size_tol, edge_band::<T>() * T::from_f64(4.0));
@@ -322,7 +333,14 @@ fn lean<T: Real>(
     for l in lines {
         let (pts, n, near_tangent) = line_conic(l, other);
         if near_tangent {
-            return None;
+            // A tangency whose points, wherever rounding puts them, stay beyond the far band
+            // of the domain decides nothing: such a line is passed over, as a root there is.
+            // Near the domain it is a grazing ray, for f64 to decide.
+            let reach = tangency_reach(l, other);
+            if pts[..n].iter().any(|&(u, v)| near_domain(u, v, s.far + reach)) {
+                return Err(Undecided::NearTangent);
+            }
+            continue;
         }
         for &(u, v) in &pts[..n] {
             if !near_domain(u, v, s.far) {
@@ -332,7 +350,7 @@ fn lean<T: Real>(
             let t = q.dot(d) * inv_dd;
             let r = q - d * t;
             if !(r.dot(r) <= tol2) {
-                return None;
+                return Err(Undecided::Other);
             }
             // Clearly outside the domain: no polish can bring it in.
             if near_domain(u, v, polish_band) {
@@ -342,6 +360,18 @@ fn lean<T: Real>(
         }
     }
     nearest_polished(p, ray, &mut cand[..k], near_multiple)
+}
+
+/// Why the lean solve left a ray undecided.
+#[derive(Clone, Copy, Debug, PartialEq, Eq)]
+enum Undecided {
+    /// A line of the member within rounding of tangent to the other conic near the domain, or a
+    /// polish that diverged or jumped out of the domain: a grazing ray, which a finer precision
+    /// settles.
+    NearTangent,
+    /// A degenerate or near-flat pencil, no member clearly a line pair, or a spurious root: the
+    /// full search's cases.
+    Other,
 }
 
 /// A root offered by the lean solve: its parameters, its ray parameter and its residual
@@ -355,14 +385,14 @@ struct Candidate<T> {
 }
 
 /// Polish the roots `cand` nearest first, and answer with the first one inside the domain and
-/// the interval; `None` if a polish diverged (the full search decides).
+/// the interval; [`Undecided::NearTangent`] if a polish diverged.
 #[inline(always)]
 fn nearest_polished<T: Real>(
     p: &Patch<T>,
     ray: &LocalRay<T>,
     cand: &mut [Candidate<T>],
     near_multiple: bool,
-) -> Option<(Option<PatchHit<T>>, Ambiguity)> {
+) -> Result<(Option<PatchHit<T>>, Ambiguity), Undecided> {
     let (o, d) = (ray.o, ray.d);
     let mut ambiguous = near_multiple;
     for i in 0..cand.len() {
@@ -372,16 +402,16 @@ fn nearest_polished<T: Real>(
         let Candidate { u, v, t, r } = cand[i];
         let (pu, pv, pt) = step_from_residual(p, d, (u, v, t), r).unwrap_or((u, v, t));
         if !on_ray(p, o, d, pu, pv, pt) || (!inside(pu, pv) && inside(u, v)) {
-            return None; // Newton diverged or jumped out: a near tangency
+            return Err(Undecided::NearTangent); // Newton diverged or jumped out
         }
         if !inside(pu, pv) {
             ambiguous |= near_domain(pu, pv, edge_band::<T>());
         } else if pt > ray.tmin && pt < ray.tmax {
             let (u, v) = clamp_to_triangle(pu, pv);
-            return Some((Some(PatchHit { t: pt, u, v }), Ambiguity { miss: ambiguous, hit: false }));
+            return Ok((Some(PatchHit { t: pt, u, v }), Ambiguity { miss: ambiguous, hit: false }));
         }
     }
-    Some((None, Ambiguity { miss: ambiguous, hit: false }))
+    Ok((None, Ambiguity { miss: ambiguous, hit: false }))
 }
 
 /// One Newton step on `P(u,v) - o - t d = 0` from `root`, whose residual `r` is known: as

@@ -126,19 +126,9 @@ pub(super) fn split_degenerate<T: Real>(h: &[[T; 3]; 3]) -> Result<[[T; 3]; 2], 
 #[inline(always)]
 pub(super) fn line_conic<T: Real>(l: [T; 3], k: &Conic<T>) -> ([(T, T); 2], usize, bool) {
     let z = T::ZERO;
-    let ll = l[0] * l[0] + l[1] * l[1];
-    if !(ll > z) || !ll.is_finite() {
+    let Some(((qx, qy), (rx, ry), [s2, s1, s0])) = along_line(l, k) else {
         return ([(z, z); 2], 0, false); // the line at infinity
-    }
-    let inv = T::ONE / ll.sqrt();
-    let (n0, n1, n2) = (l[0] * inv, l[1] * inv, l[2] * inv);
-    let (qx, qy) = (-n2 * n0, -n2 * n1);
-    let (rx, ry) = (-n1, n0);
-    let [a, b, c, d, e, _] = k.k;
-    let two = T::ONE + T::ONE;
-    let s2 = a * rx * rx + b * ry * ry + c * rx * ry;
-    let s1 = two * a * qx * rx + two * b * qy * ry + c * (qx * ry + qy * rx) + d * rx + e * ry;
-    let s0 = k.at(qx, qy);
+    };
     let (mut r, mut n) = line_quadratic(s2, s1, s0);
     let mut near_tangent = false;
     if n == 0 && s2 != z {
@@ -149,7 +139,7 @@ pub(super) fn line_conic<T: Real>(l: [T; 3], k: &Conic<T>) -> ([(T, T); 2], usiz
         // that a miss is decided again in f64. The caller's residual gate and Newton polish keep
         // the vertex only if it is a real (double) root.
         let disc = s1 * s1 - T::from_f64(4.0) * s2 * s0;
-        if disc > -T::gamma(8).sqrt().sqrt() * (s1 * s1 + (T::from_f64(4.0) * s2 * s0).abs()) {
+        if disc > -tangency_band(s2, s1, s0) {
             r[0] = -s1 / (s2 + s2);
             n = 1;
             near_tangent = true;
@@ -160,6 +150,45 @@ pub(super) fn line_conic<T: Real>(l: [T; 3], k: &Conic<T>) -> ([(T, T); 2], usiz
         out[i] = (qx + r[i] * rx, qy + r[i] * ry);
     }
     (out, n, near_tangent)
+}
+
+/// The line `l` as a point `q` and a unit direction `r`, and the conic `k` along it: `k(q + x r)
+/// = s2 x² + s1 x + s0` as `[s2, s1, s0]`. `None` for the line at infinity.
+#[inline(always)]
+fn along_line<T: Real>(l: [T; 3], k: &Conic<T>) -> Option<((T, T), (T, T), [T; 3])> {
+    let ll = l[0] * l[0] + l[1] * l[1];
+    if !(ll > T::ZERO) || !ll.is_finite() {
+        return None;
+    }
+    let inv = T::ONE / ll.sqrt();
+    let (n0, n1, n2) = (l[0] * inv, l[1] * inv, l[2] * inv);
+    let (qx, qy) = (-n2 * n0, -n2 * n1);
+    let (rx, ry) = (-n1, n0);
+    let [a, b, c, d, e, _] = k.k;
+    let two = T::ONE + T::ONE;
+    let s2 = a * rx * rx + b * ry * ry + c * rx * ry;
+    let s1 = two * a * qx * rx + two * b * qy * ry + c * (qx * ry + qy * rx) + d * rx + e * ry;
+    let s0 = k.at(qx, qy);
+    Some(((qx, qy), (rx, ry), [s2, s1, s0]))
+}
+
+/// How far from zero the discriminant of `s2 x² + s1 x + s0` may be and still be a tangency to
+/// rounding ([`line_conic`]): `γ(8)^¼` of the terms' size.
+#[inline(always)]
+fn tangency_band<T: Real>(s2: T, s1: T, s0: T) -> T {
+    T::gamma(8).sqrt().sqrt() * (s1 * s1 + (T::from_f64(4.0) * s2 * s0).abs())
+}
+
+/// Where [`line_conic`] reports a near tangency of `l` and `k`, the distance from the vertex it
+/// offers within which the true intersection points lie, if they are real: the discriminant is
+/// within [`tangency_band`] `B` of zero and at most `B` below it, so the roots lie within
+/// `sqrt(2 B) / 2|s2|` of the vertex (`r` is a unit vector). Infinite for the line at infinity.
+#[inline(always)]
+pub(super) fn tangency_reach<T: Real>(l: [T; 3], k: &Conic<T>) -> T {
+    match along_line(l, k) {
+        Some((_, _, [s2, s1, s0])) => (tangency_band(s2, s1, s0) * T::from_f64(2.0)).sqrt() / (s2 + s2).abs(),
+        None => T::from_f64(f64::INFINITY),
+    }
 }
 
 /// The real roots of `s2 x² + s1 x + s0` along a unit line, as [`solve_quadratic`] finds them
