@@ -126,7 +126,7 @@ pub(super) fn split_degenerate<T: Real>(h: &[[T; 3]; 3]) -> Result<[[T; 3]; 2], 
 #[inline(always)]
 pub(super) fn line_conic<T: Real>(l: [T; 3], k: &Conic<T>) -> ([(T, T); 2], usize, bool) {
     let z = T::ZERO;
-    let Some(((qx, qy), (rx, ry), [s2, s1, s0])) = along_line(l, k) else {
+    let Some(AlongLine { q: (qx, qy), r: (rx, ry), s: [s2, s1, s0] }) = along_line(l, k) else {
         return ([(z, z); 2], 0, false); // the line at infinity
     };
     let (mut r, mut n) = line_quadratic(s2, s1, s0);
@@ -152,10 +152,17 @@ pub(super) fn line_conic<T: Real>(l: [T; 3], k: &Conic<T>) -> ([(T, T); 2], usiz
     (out, n, near_tangent)
 }
 
-/// The line `l` as a point `q` and a unit direction `r`, and the conic `k` along it: `k(q + x r)
-/// = s2 x² + s1 x + s0` as `[s2, s1, s0]`. `None` for the line at infinity.
+/// A line as a point `q` and a unit direction `r`, and a conic along it: `k(q + x r) = s2 x² +
+/// s1 x + s0`, as `s = [s2, s1, s0]`.
+struct AlongLine<T> {
+    q: (T, T),
+    r: (T, T),
+    s: [T; 3],
+}
+
+/// The line `l` and the conic `k` along it ([`AlongLine`]). `None` for the line at infinity.
 #[inline(always)]
-fn along_line<T: Real>(l: [T; 3], k: &Conic<T>) -> Option<((T, T), (T, T), [T; 3])> {
+fn along_line<T: Real>(l: [T; 3], k: &Conic<T>) -> Option<AlongLine<T>> {
     let ll = l[0] * l[0] + l[1] * l[1];
     if !(ll > T::ZERO) || !ll.is_finite() {
         return None;
@@ -169,7 +176,7 @@ fn along_line<T: Real>(l: [T; 3], k: &Conic<T>) -> Option<((T, T), (T, T), [T; 3
     let s2 = a * rx * rx + b * ry * ry + c * rx * ry;
     let s1 = two * a * qx * rx + two * b * qy * ry + c * (qx * ry + qy * rx) + d * rx + e * ry;
     let s0 = k.at(qx, qy);
-    Some(((qx, qy), (rx, ry), [s2, s1, s0]))
+    Some(AlongLine { q: (qx, qy), r: (rx, ry), s: [s2, s1, s0] })
 }
 
 /// How far from zero the discriminant of `s2 x² + s1 x + s0` may be and still be a tangency to
@@ -186,7 +193,9 @@ fn tangency_band<T: Real>(s2: T, s1: T, s0: T) -> T {
 #[inline(always)]
 pub(super) fn tangency_reach<T: Real>(l: [T; 3], k: &Conic<T>) -> T {
     match along_line(l, k) {
-        Some((_, _, [s2, s1, s0])) => (tangency_band(s2, s1, s0) * T::from_f64(2.0)).sqrt() / (s2 + s2).abs(),
+        Some(AlongLine { s: [s2, s1, s0], .. }) => {
+            (tangency_band(s2, s1, s0) * T::from_f64(2.0)).sqrt() / (s2 + s2).abs()
+        }
         None => T::from_f64(f64::INFINITY),
     }
 }
