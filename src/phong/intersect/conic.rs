@@ -250,3 +250,66 @@ pub(super) fn project<T: Real>(p: &Patch<T>, o: V3<T>, d: V3<T>) -> Option<Proje
         g: Conic { k: [n2.dot(p.a), n2.dot(p.b), n2.dot(p.c), n2.dot(p.d), n2.dot(p.e), n2.dot(f0)] },
     })
 }
+
+#[cfg(test)]
+mod tests {
+    use super::*;
+    use crate::phong::accuracy::SplitMix;
+
+    /// Where [`line_conic`] reports a near tangency in f32, the true intersection points of the
+    /// same (f32) line and conic, computed in f64, lie within [`tangency_reach`] of the vertex it
+    /// offers: lines tangent to random conics at random points, moved off tangency by 1e-9 to
+    /// 1e-3 of the gradient's size, either way.
+    #[test]
+    fn a_near_tangency_has_its_points_within_reach_of_the_vertex() {
+        let mut rng = SplitMix(61);
+        let (mut tangencies, mut real_pairs) = (0, 0);
+        for i in 0..200_000 {
+            let k: [f64; 6] = std::array::from_fn(|_| rng.range(-1.0, 1.0));
+            // Compute a point on the conic: v from the quadratic in v at a random u.
+            let u0 = rng.range(-1.5, 1.5);
+            let [a, b, c, d, e, f] = k;
+            let (qa, qb, qc) = (b, c * u0 + e, a * u0 * u0 + d * u0 + f);
+            let disc = qb * qb - 4.0 * qa * qc;
+            if !(disc >= 0.0) || qa.abs() < 1e-3 {
+                continue;
+            }
+            let v0 = (-qb + disc.sqrt()) / (2.0 * qa);
+            // The tangent there, moved off by a tiny offset.
+            let (gu, gv) = (2.0 * a * u0 + c * v0 + d, c * u0 + 2.0 * b * v0 + e);
+            let g = (gu * gu + gv * gv).sqrt();
+            let off = 10f64.powf(rng.range(-9.0, -3.0))
+                * g
+                * if rng.next_u64().is_multiple_of(2) { 1.0 } else { -1.0 };
+            let l = [gu, gv, -gu * u0 - gv * v0 + off];
+            let (l32, k32) = (l.map(|x| x as f32), Conic { k: k.map(|x| x as f32) });
+            let (pts, n, near_tangent) = line_conic(l32, &k32);
+            if !near_tangent {
+                continue;
+            }
+            tangencies += 1;
+            let reach = tangency_reach(l32, &k32) as f64;
+            // The same f32 line and conic in f64: their exact points, where real.
+            let along = along_line(l32.map(|x| x as f64), &Conic { k: k32.k.map(|x| x as f64) }).unwrap();
+            let [s2, s1, s0] = along.s;
+            let disc = s1 * s1 - 4.0 * s2 * s0;
+            if disc < 0.0 {
+                continue;
+            }
+            real_pairs += 1;
+            let (vu, vv) = (pts[0].0 as f64, pts[0].1 as f64);
+            for x in [(-s1 + disc.sqrt()) / (2.0 * s2), (-s1 - disc.sqrt()) / (2.0 * s2)] {
+                let (pu, pv) = (along.q.0 + x * along.r.0, along.q.1 + x * along.r.1);
+                let dist = ((pu - vu).powi(2) + (pv - vv).powi(2)).sqrt();
+                assert!(
+                    dist <= reach,
+                    "case {i}: a point {dist} from the vertex, reach {reach} ({n} offered)"
+                );
+            }
+        }
+        assert!(
+            tangencies > 10_000 && real_pairs > 1_000,
+            "{tangencies} near tangencies, {real_pairs} real pairs"
+        );
+    }
+}
