@@ -2,7 +2,7 @@
 //! split into lines, and the lines' intersections with a conic offered as roots.
 
 use super::conic::{
-    adj3, det3, line_conic, project, split_degenerate, tangency_reach, trace_prod, Conic, NoLines, Projected,
+    adj3, det3, line_conic, project, split_degenerate, trace_prod, Conic, NoLines, Projected,
 };
 use super::domain::{clamp_to_triangle, edge_band, inside, near_domain, on_ray};
 use super::newton::newton_step;
@@ -217,7 +217,8 @@ impl<T: Real> Search<T> {
         };
         let (mut found_any, mut tangent_any) = (false, false);
         for l in lines {
-            let (pts, k, near_tangent) = line_conic(l, other);
+            let (pts, k, tangency) = line_conic(l, other);
+            let near_tangent = tangency.is_some();
             self.ambiguous |= near_tangent;
             tangent_any |= near_tangent;
             for &(u, v) in &pts[..k] {
@@ -331,12 +332,11 @@ fn lean<T: Real>(
         [Candidate { u: T::ZERO, v: T::ZERO, t: T::ZERO, r: V3::new(T::ZERO, T::ZERO, T::ZERO) }; 4];
     let mut k = 0;
     for l in lines {
-        let (pts, n, near_tangent) = line_conic(l, other);
-        if near_tangent {
+        let (pts, n, tangency) = line_conic(l, other);
+        if let Some(reach) = tangency {
             // A tangency whose points, wherever rounding puts them, stay beyond the far band
             // of the domain decides nothing: such a line is passed over, as a root there is.
             // Near the domain it is a grazing ray, for f64 to decide.
-            let reach = tangency_reach(l, other);
             if pts[..n].iter().any(|&(u, v)| near_domain(u, v, s.far + reach)) {
                 return Err(Undecided::NearTangent);
             }

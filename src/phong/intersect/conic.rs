@@ -121,16 +121,19 @@ pub(super) fn split_degenerate<T: Real>(h: &[[T; 3]; 3]) -> Result<[[T; 3]; 2], 
     Ok([c[bi], [c[0][bj], c[1][bj], c[2][bj]]])
 }
 
-/// Intersect the line `l` with the conic `k`: up to 2 points `(u, v)`, and whether the answer
-/// rests on a discriminant within rounding of zero (near tangency).
+/// Intersect the line `l` with the conic `k`: up to 2 points `(u, v)`, and, where the answer
+/// rests on a discriminant within rounding of zero (near tangency), how far from the vertex
+/// offered the true points lie if they are real: the discriminant is within [`tangency_band`]
+/// `B` of zero and at most `B` below it, so the roots lie within `sqrt(2 B) / 2|s2|` of the
+/// vertex (along a unit direction).
 #[inline(always)]
-pub(super) fn line_conic<T: Real>(l: [T; 3], k: &Conic<T>) -> ([(T, T); 2], usize, bool) {
+pub(super) fn line_conic<T: Real>(l: [T; 3], k: &Conic<T>) -> ([(T, T); 2], usize, Option<T>) {
     let z = T::ZERO;
     let Some(AlongLine { q: (qx, qy), r: (rx, ry), s: [s2, s1, s0] }) = along_line(l, k) else {
-        return ([(z, z); 2], 0, false); // the line at infinity
+        return ([(z, z); 2], 0, None); // the line at infinity
     };
     let (mut r, mut n) = line_quadratic(s2, s1, s0);
-    let mut near_tangent = false;
+    let mut tangency = None;
     if n == 0 && s2 != z {
         // Near tangency the discriminant's sign is lost in the rounding of everything upstream
         // (pencil root, line factors, each carrying up to the square root of the precision near
@@ -139,17 +142,18 @@ pub(super) fn line_conic<T: Real>(l: [T; 3], k: &Conic<T>) -> ([(T, T); 2], usiz
         // that a miss is decided again in f64. The caller's residual gate and Newton polish keep
         // the vertex only if it is a real (double) root.
         let disc = s1 * s1 - T::from_f64(4.0) * s2 * s0;
-        if disc > -tangency_band(s2, s1, s0) {
+        let band = tangency_band(s2, s1, s0);
+        if disc > -band {
             r[0] = -s1 / (s2 + s2);
             n = 1;
-            near_tangent = true;
+            tangency = Some((band * T::from_f64(2.0)).sqrt() / (s2 + s2).abs());
         }
     }
     let mut out = [(z, z); 2];
     for i in 0..n {
         out[i] = (qx + r[i] * rx, qy + r[i] * ry);
     }
-    (out, n, near_tangent)
+    (out, n, tangency)
 }
 
 /// A line as a point `q` and a unit direction `r`, and a conic along it: `k(q + x r) = s2 x² +
@@ -184,20 +188,6 @@ fn along_line<T: Real>(l: [T; 3], k: &Conic<T>) -> Option<AlongLine<T>> {
 #[inline(always)]
 fn tangency_band<T: Real>(s2: T, s1: T, s0: T) -> T {
     T::gamma(8).sqrt().sqrt() * (s1 * s1 + (T::from_f64(4.0) * s2 * s0).abs())
-}
-
-/// Where [`line_conic`] reports a near tangency of `l` and `k`, the distance from the vertex it
-/// offers within which the true intersection points lie, if they are real: the discriminant is
-/// within [`tangency_band`] `B` of zero and at most `B` below it, so the roots lie within
-/// `sqrt(2 B) / 2|s2|` of the vertex (`r` is a unit vector). Infinite for the line at infinity.
-#[inline(always)]
-pub(super) fn tangency_reach<T: Real>(l: [T; 3], k: &Conic<T>) -> T {
-    match along_line(l, k) {
-        Some(AlongLine { s: [s2, s1, s0], .. }) => {
-            (tangency_band(s2, s1, s0) * T::from_f64(2.0)).sqrt() / (s2 + s2).abs()
-        }
-        None => T::from_f64(f64::INFINITY),
-    }
 }
 
 /// The real roots of `s2 x² + s1 x + s0` along a unit line, as [`solve_quadratic`] finds them
@@ -257,8 +247,8 @@ mod tests {
     use crate::phong::accuracy::SplitMix;
 
     /// Where [`line_conic`] reports a near tangency in f32, the true intersection points of the
-    /// same (f32) line and conic, computed in f64, lie within [`tangency_reach`] of the vertex it
-    /// offers: lines tangent to random conics at random points, moved off tangency by 1e-9 to
+    /// same (f32) line and conic, computed in f64, lie within the reach it reports of the vertex
+    /// it offers: lines tangent to random conics at random points, moved off tangency by 1e-9 to
     /// 1e-3 of the gradient's size, either way.
     #[test]
     fn a_near_tangency_has_its_points_within_reach_of_the_vertex() {
@@ -283,12 +273,10 @@ mod tests {
                 * if rng.next_u64().is_multiple_of(2) { 1.0 } else { -1.0 };
             let l = [gu, gv, -gu * u0 - gv * v0 + off];
             let (l32, k32) = (l.map(|x| x as f32), Conic { k: k.map(|x| x as f32) });
-            let (pts, n, near_tangent) = line_conic(l32, &k32);
-            if !near_tangent {
-                continue;
-            }
+            let (pts, n, tangency) = line_conic(l32, &k32);
+            let Some(reach) = tangency else { continue };
+            let reach = reach as f64;
             tangencies += 1;
-            let reach = tangency_reach(l32, &k32) as f64;
             // The same f32 line and conic in f64: their exact points, where real.
             let along = along_line(l32.map(|x| x as f64), &Conic { k: k32.k.map(|x| x as f64) }).unwrap();
             let [s2, s1, s0] = along.s;
