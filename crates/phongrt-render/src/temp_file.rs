@@ -106,6 +106,10 @@ pub fn signal_exit_status(sig: i32) -> i32 {
 /// with status 128 + the signal (143, 130, 129). A thread of signal-hook's receives the signals
 /// (its handler only writes to a pipe); the files are removed there, under the registry's lock,
 /// which is then held until the process ends, so no rename can follow.
+///
+/// The process ends with `_exit`, not [`std::process::exit`]: the latter runs the C and C++
+/// at-exit destructors (Embree's and its task scheduler's) while other threads are still
+/// tracing, which crashed 1 run in about 40 with SIGSEGV or SIGABRT instead of the status.
 pub fn remove_on_signals() -> std::io::Result<()> {
     use signal_hook::consts::{SIGHUP, SIGINT, SIGTERM};
     let mut signals = signal_hook::iterator::Signals::new([SIGTERM, SIGINT, SIGHUP])?;
@@ -115,7 +119,7 @@ pub fn remove_on_signals() -> std::io::Result<()> {
             for p in registry.iter() {
                 let _ = std::fs::remove_file(p);
             }
-            std::process::exit(signal_exit_status(sig));
+            signal_hook::low_level::exit(signal_exit_status(sig));
         }
     })?;
     Ok(())
