@@ -30,7 +30,12 @@ cd "$(dirname "$0")/.."
 
 die() { echo "install.sh: error: $*" >&2; exit 1; }
 keep_debug=no
-if [ "${1:-}" = --keep-debug ]; then keep_debug=yes; shift; fi
+if [ "${1:-}" = --keep-debug ]; then
+  keep_debug=yes
+  shift
+  # The release profile carries no debug information (Cargo.toml); this build does.
+  export CARGO_PROFILE_RELEASE_DEBUG=1
+fi
 [ $# -eq 1 ] || die "usage: scripts/install.sh [--keep-debug] PREFIX"
 prefix="$1"
 case "$prefix" in /*) ;; *) prefix="$PWD/$prefix" ;; esac
