@@ -15,7 +15,9 @@ use phongrt::embree::Device;
 use phongrt::scene::{self, LoadOptions};
 use phongrt_render::render_record::{Digest, RenderRecord};
 use phongrt_render::scene_file::{self, LightSection, SceneFile};
-use phongrt_render::{self as render, Camera, Light, ObjectMode, ObjectSettings, RenderSettings, World};
+use phongrt_render::{
+    self as render, Camera, Light, ObjectMode, ObjectSettings, RenderSettings, SurfaceMode, World,
+};
 
 /// Stage times of one run, in seconds.
 #[derive(Clone, Copy, Debug, Default)]
@@ -58,7 +60,8 @@ impl SceneSource {
 pub(crate) struct ModeRules {
     pub(crate) default: ObjectMode,
     pub(crate) file_objects: Vec<scene_file::ObjectSection>,
-    pub(crate) overrides: Vec<(String, ObjectMode)>,
+    /// `--object`: a name (or "*"), a mode and its alpha if given.
+    pub(crate) overrides: Vec<(String, SurfaceMode, Option<f32>)>,
     pub(crate) straight_creases: bool,
 }
 
@@ -71,9 +74,9 @@ impl ModeRules {
         }
         let matching = self.file_objects.iter().filter(|o| o.name == "*" || o.name == mesh.name);
         let mut mode = matching.fold(self.default, |m, o| o.mode_over(m));
-        for (name, m) in &self.overrides {
+        for (name, m, alpha) in &self.overrides {
             if name == "*" || *name == mesh.name {
-                mode = *m;
+                mode = m.over(*alpha, mode);
             }
         }
         ObjectSettings { mode, straight_creases }
@@ -106,14 +109,14 @@ impl RenderJob {
         let source = SceneSource::resolve(args)?;
         let sf = source.file.as_ref();
         let plan = plan(args, sf)?;
-        let overrides: Vec<(String, ObjectMode)> =
+        let overrides: Vec<(String, SurfaceMode, Option<f32>)> =
             args.objects.iter().map(|s| parse_object_override(s)).collect::<anyhow::Result<_>>()?;
 
         // Load the mesh, and check the object names given for it.
         let crease = sf.and_then(|s| s.crease_angle).unwrap_or(args.load.crease_angle);
         let load_opts = load_options(&args.load, crease)?;
         let input = load(&source.obj, &load_opts, !args.quiet)?;
-        for (name, _) in &overrides {
+        for (name, ..) in &overrides {
             if !(name == "*" || input.meshes.iter().any(|m| m.name == *name)) {
                 usage!(
                     "--object {name:?}: no such object (objects: {})",

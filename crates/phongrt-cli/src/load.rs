@@ -8,7 +8,7 @@ use crate::cli::LoadArgs;
 use crate::progress::Stage;
 use crate::Usage;
 use phongrt::scene::{self, LoadOptions};
-use phongrt_render::{ObjectMode, SurfaceMode};
+use phongrt_render::SurfaceMode;
 
 /// Refuse a file that is plainly not an OBJ (by its extension) before reading it.
 pub(crate) fn check_obj_path(path: &Path) -> anyhow::Result<()> {
@@ -60,8 +60,9 @@ pub(crate) fn load(path: &Path, opts: &LoadOptions, show: bool) -> anyhow::Resul
     Ok(s)
 }
 
-/// `NAME=flat` or `NAME=phong[:ALPHA]`.
-pub(crate) fn parse_object_override(s: &str) -> anyhow::Result<(String, ObjectMode)> {
+/// `NAME=flat` or `NAME=phong[:ALPHA]`: the name, the mode and the alpha if given (see
+/// [`SurfaceMode::over`] for one left out).
+pub(crate) fn parse_object_override(s: &str) -> anyhow::Result<(String, SurfaceMode, Option<f32>)> {
     let Some((name, mode)) = s.rsplit_once('=') else {
         usage!("--object {s:?}: expected NAME=flat or NAME=phong[:ALPHA]");
     };
@@ -70,8 +71,8 @@ pub(crate) fn parse_object_override(s: &str) -> anyhow::Result<(String, ObjectMo
         None => (mode, None),
     };
     // The names are --mode's (and the scene file's `mode`).
-    let mode = match (SurfaceMode::from_name(mode_name).ok_or(()), alpha) {
-        (Ok(m), None) => m.with_alpha(phongrt::phong::DEFAULT_ALPHA),
+    let (mode, alpha) = match (SurfaceMode::from_name(mode_name).ok_or(()), alpha) {
+        (Ok(m), None) => (m, None),
         (Ok(SurfaceMode::Phong), Some(a)) => {
             let Ok(alpha) = a.parse::<f32>() else {
                 usage!("--object {s:?}: alpha {a:?} is not a number");
@@ -79,9 +80,24 @@ pub(crate) fn parse_object_override(s: &str) -> anyhow::Result<(String, ObjectMo
             if !(0.0..=1.0).contains(&alpha) {
                 usage!("--object {s:?}: alpha {alpha} is not in [0, 1]");
             }
-            ObjectMode::Phong { alpha }
+            (SurfaceMode::Phong, Some(alpha))
         }
         _ => usage!("--object {s:?}: mode must be flat, phong or phong:ALPHA"),
     };
-    Ok((name.to_string(), mode))
+    Ok((name.to_string(), mode, alpha))
+}
+
+#[cfg(test)]
+mod tests {
+    use super::*;
+
+    #[test]
+    fn an_object_override_without_alpha_gives_none_for_the_prior_alpha_to_stay() {
+        let parse = |s: &str| parse_object_override(s).map_err(|e| e.to_string());
+        assert_eq!(parse("head=phong"), Ok(("head".into(), SurfaceMode::Phong, None)));
+        assert_eq!(parse("*=phong:0.5"), Ok(("*".into(), SurfaceMode::Phong, Some(0.5))));
+        assert_eq!(parse("a=b=flat"), Ok(("a=b".into(), SurfaceMode::Flat, None)));
+        assert!(parse("head=flat:0.5").unwrap_err().contains("mode must be flat, phong or phong:ALPHA"));
+        assert!(parse("head=phong:2").unwrap_err().contains("not in [0, 1]"));
+    }
 }

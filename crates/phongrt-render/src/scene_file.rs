@@ -257,7 +257,8 @@ pub struct ObjectSection {
     /// `alpha`).
     pub mode: Option<SurfaceMode>,
     /// Phong shape factor in [0, 1]: 0 is the flat triangle, 1 the full bulge. Given without
-    /// `mode` it makes the objects Phong; `mode` without it uses 0.75.
+    /// `mode` it makes the objects Phong; `mode = "phong"` without it keeps the alpha the object
+    /// had (0.75 for an object that was flat).
     pub alpha: Option<f32>,
     /// Diffuse reflectance (as MTL `Kd`), linear RGB, each >= 0.
     #[serde(default, deserialize_with = "opt_vec3")]
@@ -278,11 +279,12 @@ pub struct ObjectSection {
 }
 
 impl ObjectSection {
-    /// The mode this entry gives an object that was in `mode`: its `mode` at its `alpha` (the
-    /// default alpha without one), Phong at its `alpha` if it gives only that, else `mode`.
+    /// The mode this entry gives an object that was in `mode`: its `mode` at its `alpha` (without
+    /// one, as [`SurfaceMode::over`] keeps it), Phong at its `alpha` if it gives only that, else
+    /// `mode`.
     pub fn mode_over(&self, mode: ObjectMode) -> ObjectMode {
         match (self.mode, self.alpha) {
-            (Some(m), a) => m.with_alpha(a.unwrap_or(phongrt::phong::DEFAULT_ALPHA)),
+            (Some(m), a) => m.over(a, mode),
             (None, Some(a)) => ObjectMode::Phong { alpha: a },
             (None, None) => mode,
         }

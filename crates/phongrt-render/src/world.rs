@@ -54,6 +54,17 @@ impl SurfaceMode {
             SurfaceMode::Phong => ObjectMode::Phong { alpha },
         }
     }
+
+    /// The object mode this mode gives an object that was in `prior`: flat, or Phong at `alpha`,
+    /// and without one at `prior`'s alpha (at [`phongrt::phong::DEFAULT_ALPHA`] when `prior` is
+    /// flat). So naming the mode alone changes the mode, not an alpha set before.
+    pub fn over(self, alpha: Option<f32>, prior: ObjectMode) -> ObjectMode {
+        let kept = match prior {
+            ObjectMode::Phong { alpha } => alpha,
+            ObjectMode::Flat => phongrt::phong::DEFAULT_ALPHA,
+        };
+        self.with_alpha(alpha.unwrap_or(kept))
+    }
 }
 
 /// How an object's surface is made.
@@ -1555,5 +1566,46 @@ impl Rng {
         } else {
             (j1, j2)
         }
+    }
+}
+
+#[cfg(test)]
+mod tests {
+    use super::*;
+    use crate::scene_file::ObjectSection;
+
+    /// An `[[object]]` entry naming only `mode` and `alpha`.
+    fn entry(mode: Option<SurfaceMode>, alpha: Option<f32>) -> ObjectSection {
+        ObjectSection {
+            name: "*".into(),
+            mode,
+            alpha,
+            kd: None,
+            mirror: None,
+            transmission: None,
+            ior: None,
+            specular: None,
+            shininess: None,
+        }
+    }
+
+    #[test]
+    fn naming_phong_without_alpha_keeps_the_alpha_set_before() {
+        let (phong, flat) = (SurfaceMode::Phong, SurfaceMode::Flat);
+        let at = |alpha| ObjectMode::Phong { alpha };
+        let default = at(phongrt::phong::DEFAULT_ALPHA);
+        // The mode alone: Phong keeps the prior alpha, or takes the default from flat.
+        assert_eq!(phong.over(None, at(1.0)), at(1.0));
+        assert_eq!(phong.over(None, ObjectMode::Flat), default);
+        assert_eq!(flat.over(None, at(1.0)), ObjectMode::Flat);
+        // With an alpha, that alpha.
+        assert_eq!(phong.over(Some(0.25), at(1.0)), at(0.25));
+        assert_eq!(phong.over(Some(0.25), ObjectMode::Flat), at(0.25));
+        // A scene file's `[[object]]` entries combine the same way.
+        assert_eq!(entry(Some(phong), None).mode_over(at(1.0)), at(1.0));
+        assert_eq!(entry(Some(phong), None).mode_over(ObjectMode::Flat), default);
+        assert_eq!(entry(None, Some(0.5)).mode_over(ObjectMode::Flat), at(0.5));
+        assert_eq!(entry(Some(flat), Some(0.5)).mode_over(at(1.0)), ObjectMode::Flat);
+        assert_eq!(entry(None, None).mode_over(at(1.0)), at(1.0));
     }
 }
