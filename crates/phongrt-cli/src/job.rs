@@ -59,6 +59,8 @@ impl SceneSource {
 #[derive(Clone, Debug)]
 pub(crate) struct ModeRules {
     pub(crate) default: ObjectMode,
+    /// `--alpha`: what an object made Phong without an alpha gets when it was flat.
+    pub(crate) alpha: f32,
     pub(crate) file_objects: Vec<scene_file::ObjectSection>,
     /// `--object`: a name (or "*"), a mode and its alpha if given.
     pub(crate) overrides: Vec<(String, SurfaceMode, Option<f32>)>,
@@ -73,10 +75,10 @@ impl ModeRules {
             return ObjectSettings { mode, straight_creases };
         }
         let matching = self.file_objects.iter().filter(|o| o.name == "*" || o.name == mesh.name);
-        let mut mode = matching.fold(self.default, |m, o| o.mode_over(m));
+        let mut mode = matching.fold(self.default, |m, o| o.mode_over(m, self.alpha));
         for (name, m, alpha) in &self.overrides {
             if name == "*" || *name == mesh.name {
-                mode = m.over(*alpha, mode);
+                mode = m.over(*alpha, mode, self.alpha);
             }
         }
         ObjectSettings { mode, straight_creases }
@@ -132,6 +134,7 @@ impl RenderJob {
         // Resolve the surfaces: modes, shading normal, terminator.
         let modes = ModeRules {
             default: args.mode.with_alpha(args.alpha),
+            alpha: args.alpha,
             file_objects: sf.map(|s| s.objects.clone()).unwrap_or_default(),
             overrides,
             straight_creases: !args.open_creases,

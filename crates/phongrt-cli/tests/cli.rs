@@ -703,3 +703,37 @@ fn info_to_a_closed_pipe_ends_quietly_without_a_panic() {
     assert!(!err.contains("panicked"), "{err}");
     assert_eq!(out.status.code(), Some(141), "{err}");
 }
+
+#[test]
+fn naming_phong_without_alpha_keeps_the_alpha_asked_for() {
+    let dir = tempfile::tempdir().unwrap();
+    let toml = dir.path().join("s.toml");
+    let obj = common::root().join("scenes/sphere_lowpoly.obj");
+    std::fs::write(
+        &toml,
+        format!("obj = {:?}\n[[object]]\nname = \"*\"\nmode = \"phong\"\n", obj.display().to_string()),
+    )
+    .unwrap();
+    let toml = toml.to_string_lossy().into_owned();
+    let render = |args: &[&str]| {
+        let out = dir.path().join("out.png");
+        phongrt()
+            .args(["render", "--width", "32", "--height", "32", "--spp", "1", "-q"])
+            .args(args)
+            .arg("-o")
+            .arg(&out)
+            .assert()
+            .success();
+        std::fs::read(&out).unwrap()
+    };
+    let at_one = render(&["scenes/sphere_lowpoly.obj", "--object", "*=phong:1"]);
+    // The scene file's mode, and --object's, keep --alpha; from flat, --object takes --alpha.
+    assert_eq!(render(&[&toml, "--alpha", "1"]), at_one);
+    assert_eq!(render(&["scenes/sphere_lowpoly.obj", "--alpha", "1", "--object", "*=phong"]), at_one);
+    assert_eq!(
+        render(&["scenes/sphere_lowpoly.obj", "--mode", "flat", "--alpha", "1", "--object", "*=phong"]),
+        at_one
+    );
+    // And the alpha does change the image.
+    assert_ne!(render(&[&toml]), at_one);
+}

@@ -258,7 +258,8 @@ pub struct ObjectSection {
     pub mode: Option<SurfaceMode>,
     /// Phong shape factor in [0, 1]: 0 is the flat triangle, 1 the full bulge. Given without
     /// `mode` it makes the objects Phong; `mode = "phong"` without it keeps the alpha the object
-    /// had (0.75 for an object that was flat).
+    /// had (for an object that was flat, the alpha asked for elsewhere: see
+    /// [`ObjectSection::mode_over`]).
     pub alpha: Option<f32>,
     /// Diffuse reflectance (as MTL `Kd`), linear RGB, each >= 0.
     #[serde(default, deserialize_with = "opt_vec3")]
@@ -280,11 +281,11 @@ pub struct ObjectSection {
 
 impl ObjectSection {
     /// The mode this entry gives an object that was in `mode`: its `mode` at its `alpha` (without
-    /// one, as [`SurfaceMode::over`] keeps it), Phong at its `alpha` if it gives only that, else
-    /// `mode`.
-    pub fn mode_over(&self, mode: ObjectMode) -> ObjectMode {
+    /// one, as [`SurfaceMode::over`] keeps it, with `fallback` for an object that was flat), Phong
+    /// at its `alpha` if it gives only that, else `mode`.
+    pub fn mode_over(&self, mode: ObjectMode, fallback: f32) -> ObjectMode {
         match (self.mode, self.alpha) {
-            (Some(m), a) => m.over(a, mode),
+            (Some(m), a) => m.over(a, mode, fallback),
             (None, Some(a)) => ObjectMode::Phong { alpha: a },
             (None, None) => mode,
         }

@@ -56,12 +56,13 @@ impl SurfaceMode {
     }
 
     /// The object mode this mode gives an object that was in `prior`: flat, or Phong at `alpha`,
-    /// and without one at `prior`'s alpha (at [`phongrt::phong::DEFAULT_ALPHA`] when `prior` is
-    /// flat). So naming the mode alone changes the mode, not an alpha set before.
-    pub fn over(self, alpha: Option<f32>, prior: ObjectMode) -> ObjectMode {
+    /// and without one at `prior`'s alpha (at `fallback` when `prior` is flat: the alpha asked
+    /// for elsewhere, such as `--alpha`, or [`phongrt::phong::DEFAULT_ALPHA`]). So naming the
+    /// mode alone changes the mode, not an alpha set before.
+    pub fn over(self, alpha: Option<f32>, prior: ObjectMode, fallback: f32) -> ObjectMode {
         let kept = match prior {
             ObjectMode::Phong { alpha } => alpha,
-            ObjectMode::Flat => phongrt::phong::DEFAULT_ALPHA,
+            ObjectMode::Flat => fallback,
         };
         self.with_alpha(alpha.unwrap_or(kept))
     }
@@ -1593,19 +1594,18 @@ mod tests {
     fn naming_phong_without_alpha_keeps_the_alpha_set_before() {
         let (phong, flat) = (SurfaceMode::Phong, SurfaceMode::Flat);
         let at = |alpha| ObjectMode::Phong { alpha };
-        let default = at(phongrt::phong::DEFAULT_ALPHA);
-        // The mode alone: Phong keeps the prior alpha, or takes the default from flat.
-        assert_eq!(phong.over(None, at(1.0)), at(1.0));
-        assert_eq!(phong.over(None, ObjectMode::Flat), default);
-        assert_eq!(flat.over(None, at(1.0)), ObjectMode::Flat);
+        // The mode alone: Phong keeps the prior alpha, or takes the fallback from flat.
+        assert_eq!(phong.over(None, at(1.0), 0.5), at(1.0));
+        assert_eq!(phong.over(None, ObjectMode::Flat, 0.5), at(0.5));
+        assert_eq!(flat.over(None, at(1.0), 0.5), ObjectMode::Flat);
         // With an alpha, that alpha.
-        assert_eq!(phong.over(Some(0.25), at(1.0)), at(0.25));
-        assert_eq!(phong.over(Some(0.25), ObjectMode::Flat), at(0.25));
+        assert_eq!(phong.over(Some(0.25), at(1.0), 0.5), at(0.25));
+        assert_eq!(phong.over(Some(0.25), ObjectMode::Flat, 0.5), at(0.25));
         // A scene file's `[[object]]` entries combine the same way.
-        assert_eq!(entry(Some(phong), None).mode_over(at(1.0)), at(1.0));
-        assert_eq!(entry(Some(phong), None).mode_over(ObjectMode::Flat), default);
-        assert_eq!(entry(None, Some(0.5)).mode_over(ObjectMode::Flat), at(0.5));
-        assert_eq!(entry(Some(flat), Some(0.5)).mode_over(at(1.0)), ObjectMode::Flat);
-        assert_eq!(entry(None, None).mode_over(at(1.0)), at(1.0));
+        assert_eq!(entry(Some(phong), None).mode_over(at(1.0), 0.5), at(1.0));
+        assert_eq!(entry(Some(phong), None).mode_over(ObjectMode::Flat, 0.5), at(0.5));
+        assert_eq!(entry(None, Some(0.25)).mode_over(ObjectMode::Flat, 0.5), at(0.25));
+        assert_eq!(entry(Some(flat), Some(0.25)).mode_over(at(1.0), 0.5), ObjectMode::Flat);
+        assert_eq!(entry(None, None).mode_over(at(1.0), 0.5), at(1.0));
     }
 }

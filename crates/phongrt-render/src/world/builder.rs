@@ -233,7 +233,10 @@ impl<'a> WorldBuilder<'a> {
         self.settings = Rc::new(move |i, mesh| {
             let s = settings(i, mesh);
             let matching = objects.iter().filter(|o| o.name == "*" || o.name == mesh.name);
-            ObjectSettings { mode: matching.fold(s.mode, |m, o| o.mode_over(m)), ..s }
+            ObjectSettings {
+                mode: matching.fold(s.mode, |m, o| o.mode_over(m, phongrt::phong::DEFAULT_ALPHA)),
+                ..s
+            }
         });
         for o in &sf.objects {
             self = self.surface(o.name.clone(), o.surface_override());
