@@ -1,6 +1,6 @@
 //! The command line's camera and material choices: `--up`, `--orbit`, `--compare` with a scene
 //! file's per-object settings, material warnings.
-mod common;
+use crate::common;
 
 use assert_cmd::Command;
 

@@ -2,7 +2,7 @@
 //! whatever the tile count and thread count; frames, seeds and stats; bad farm flags are one
 //! line naming the flag and the value, with exit status 2; image read/write errors are typed
 //! and name the file.
-mod common;
+use crate::common;
 
 use std::path::{Path, PathBuf};
 

@@ -1,7 +1,7 @@
 //! `[environment]`: a constant colour or an equirectangular map as a light, sampled only when
 //! asked for (counted as environment rays), and a missing or corrupt map as an error naming it.
 
-mod common;
+use crate::common;
 
 use std::sync::Arc;
 

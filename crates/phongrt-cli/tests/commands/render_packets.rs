@@ -1,7 +1,7 @@
 //! The renderer's 8-ray packets (camera rays from 4x2 pixel blocks, hard shadows per light):
 //! the image, alpha and ray counts are exactly those of the single-ray renderer, for the demo
 //! scene and for worlds that use every light kind and effect, whatever the crop and threads.
-mod common;
+use crate::common;
 
 use assert_cmd::Command;
 use glam::Vec3;

@@ -1,7 +1,7 @@
 //! Renders that share an output path never collide (issue 24): temporary files get a random
 //! name created with `O_EXCL`, so tasks with the same process ID (PID 1 in every container's
 //! PID namespace) neither fail on each other's temp file nor delete it.
-mod common;
+use crate::common;
 
 use std::path::Path;
 use std::process::{Command, Stdio};

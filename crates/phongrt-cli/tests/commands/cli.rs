@@ -1,6 +1,6 @@
 //! The `phongrt` command: render, info, accuracy; every bad input a one-line error and a
 //! non-zero exit, never a panic.
-mod common;
+use crate::common;
 
 use assert_cmd::Command;
 use predicates::prelude::*;

@@ -9,7 +9,7 @@
 //! the default view began to frame the cast shadow (`--frame-shadow`); rendered with
 //! `--frame-shadow off --front-cues off`, the new binary matched the old references within 6
 //! (sphere, 30 channel values) and 12 levels (wuson, 81 channel values).
-mod common;
+use crate::common;
 
 use std::path::Path;
 

@@ -1,5 +1,5 @@
 //! `stitch` refuses what would give a wrong image or lose work (issue 24).
-mod common;
+use crate::common;
 
 use std::path::{Path, PathBuf};
 
