@@ -707,14 +707,7 @@ fn info_to_a_closed_pipe_ends_quietly_without_a_panic() {
 #[test]
 fn naming_phong_without_alpha_keeps_the_alpha_asked_for() {
     let dir = tempfile::tempdir().unwrap();
-    let toml = dir.path().join("s.toml");
-    let obj = common::root().join("scenes/sphere_lowpoly.obj");
-    std::fs::write(
-        &toml,
-        format!("obj = {:?}\n[[object]]\nname = \"*\"\nmode = \"phong\"\n", obj.display().to_string()),
-    )
-    .unwrap();
-    let toml = toml.to_string_lossy().into_owned();
+    let toml = scene_with(dir.path(), "[[object]]\nname = \"*\"\nmode = \"phong\"\n");
     let render = |args: &[&str]| {
         let out = dir.path().join("out.png");
         phongrt()
