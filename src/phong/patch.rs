@@ -44,6 +44,11 @@ pub struct Patch<T> {
     /// rounding slack that does not depend on the ray, added here once instead of per test).
     pub(crate) prism_n: [V3<T>; 5],
     pub(crate) prism_h: [T; 5],
+    /// The axis of the cone of local ray directions `d` along which the patch cannot fold:
+    /// where `(d · unfolded)² > d · d`, `det J` keeps one sign over the domain (the det-sign
+    /// certificate holds without being computed; see [`unfolded_axis`]). Zero where no direction
+    /// is certain.
+    pub(crate) unfolded: V3<T>,
     /// Whether the patch has zero area or non-finite input: it is never hit.
     pub(crate) degenerate: bool,
 }
@@ -202,6 +207,58 @@ fn bounds_pad<T: Real>() -> f64 {
     T::gamma(8).to_f64() * 4.0 + f64::EPSILON * 16.0
 }
 
+/// The axis `k` of a cone of local ray directions along which the patch `[A, B, C, D, E]`
+/// (its coefficients but the constant) cannot fold: for a direction `d` with `(d·k)² > d·d`,
+/// the normal `N(u, v) = Pu × Pv` satisfies `|d̂·N| > τ = 1e-4 S²` with one sign on the whole
+/// domain (`d̂ = d / |d|`, `S` the largest `|Pu|`, `|Pv|` at a corner, which bounds them on the
+/// domain). Zero where no such cone exists (the normals spread over a half-space or more, or
+/// one of them is within `τ` of zero). [`super::intersect`]'s det-sign certificate rests on it
+/// (`det J = (n1 × n2)·N`, see there).
+///
+/// `N` is quadratic: on the triangle its Bernstein coefficients are `Pu_i × Pv_i` at the
+/// corners and `(Pu_i × Pv_j + Pu_j × Pv_i) / 2` on the edges, and `d̂·N` is their convex
+/// combination, so `d̂·N_i > τ` for all six is enough. With `a` the unit mean of their
+/// directions and `θ_i` their angles from it, a direction within `φ_i = acos(τ / |N_i|) - θ_i`
+/// of `a` has `d̂·N_i >= |N_i| cos(θ_i + angle) > τ`; the cone's half-angle is the least
+/// `φ_i` less `3e-3` (which covers the rounding of `k` and of the test in f32: an angle error
+/// of about the square root of its relative error, 1e-3 at most), and `k = a / cos φ`. Built in
+/// f64 with square roots only (no `acos`): `cos φ_i = c cos θ_i + sin(acos c) sin θ_i`,
+/// `c = τ / |N_i|`.
+pub(crate) fn unfolded_axis(k: [V3<f64>; 5]) -> V3<f64> {
+    let [a, b, c, d, e] = k;
+    // Compute the partials at the corners (0, 0), (1, 0), (0, 1), their bound S, and the six
+    // Bernstein coefficients of N.
+    let pu = [d, a * 2.0 + d, c + d];
+    let pv = [e, c + e, b * 2.0 + e];
+    let s = pu.iter().chain(&pv).map(|x| x.length()).fold(0.0, f64::max);
+    let mixed = |i: usize, j: usize| (pu[i].cross(pv[j]) + pu[j].cross(pv[i])) * 0.5;
+    let n =
+        [pu[0].cross(pv[0]), pu[1].cross(pv[1]), pu[2].cross(pv[2]), mixed(0, 1), mixed(1, 2), mixed(2, 0)];
+    let tau = 1e-4 * s * s;
+    let len = n.map(|x| x.length());
+    if !len.iter().all(|&l| l > tau && l.is_finite()) {
+        return V3::zero();
+    }
+    // Compute the axis, then the cone's half-angle: the largest cos φ_i, less the margin.
+    let sum = (0..6).fold(V3::zero(), |acc, i| acc + n[i] * (1.0 / len[i]));
+    let Some(axis) = sum.normalized() else { return V3::zero() };
+    let mut cos_phi = f64::NEG_INFINITY;
+    for i in 0..6 {
+        let (cos_t, c) = (axis.dot(n[i]) / len[i], tau / len[i]);
+        if !(c < cos_t) {
+            return V3::zero();
+        }
+        let sin_t = (1.0 - cos_t * cos_t).max(0.0).sqrt();
+        cos_phi = cos_phi.max(c * cos_t + (1.0 - c * c).sqrt() * sin_t);
+    }
+    let (cos_m, sin_m) = (3e-3f64.cos(), 3e-3f64.sin());
+    if !(cos_phi < cos_m) {
+        return V3::zero();
+    }
+    let sin_phi = (1.0 - cos_phi * cos_phi).max(0.0).sqrt();
+    axis * (1.0 / (cos_phi * cos_m + sin_phi * sin_m))
+}
+
 impl<T: Real> Patch<T> {
     /// A patch from 3 positions, 3 normals (normalised here) and `alpha` in [0, 1].
     pub fn new(p: [glam::DVec3; 3], n: [glam::DVec3; 3], alpha: f64) -> Self {
@@ -271,6 +328,9 @@ impl<T: Real> Patch<T> {
         ];
         lo = lo - V3::new(pad, pad, pad);
         hi = hi + V3::new(pad, pad, pad);
+        // The cone is the stored coefficients' (rounded to T), as the solve sees them.
+        let stored = |x: V3<f64>| x.cast::<T>().to_f64();
+        let unfolded = unfolded_axis([a, b, c, d, e].map(stored));
         Patch {
             center: center.cast(),
             scale: T::from_f64(scale),
@@ -286,6 +346,7 @@ impl<T: Real> Patch<T> {
             hi: hi.cast(),
             prism_n: prism_n.map(|n| n.cast()),
             prism_h: prism_h.map(|h| T::from_f64(prism_slack::<T>(h))),
+            unfolded: if degenerate { V3::zero() } else { unfolded.cast() },
             degenerate,
         }
     }
@@ -331,6 +392,16 @@ impl<T: Real> Patch<T> {
             prism_h: prism_h.map(U::from_f64),
             lo: (self.lo.to_f64() + shift - widen).cast(),
             hi: (self.hi.to_f64() + shift + widen).cast(),
+            // To a finer precision the coefficients convert exactly, and the cone's margin
+            // covers its axis's rounding; to a coarser one it is the rounded coefficients'.
+            unfolded: if !coarser {
+                self.unfolded.cast()
+            } else if self.degenerate {
+                V3::zero()
+            } else {
+                let stored = |x: V3<T>| x.cast::<U>().to_f64();
+                unfolded_axis([self.a, self.b, self.c, self.d, self.e].map(stored)).cast()
+            },
             degenerate: self.degenerate,
         }
     }

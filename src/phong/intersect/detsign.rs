@@ -46,9 +46,24 @@
 //! products. The certificate is exact for the conics as computed: their own rounding (of the
 //! ray's planes and of `P - o`) is a backward error of the ray, which every stage of the solve
 //! shares.
+//!
+//! Most rays need none of this: the patch's own cone of unfolded directions decides them first
+//! ([`unfolded_along`]). With `n1`, `n2` the ray's planes, `J = [[n1·Pu, n1·Pv], [n2·Pu,
+//! n2·Pv]]`, so `det J = (n1 × n2)·(Pu × Pv)`, and `n1 × n2` is the ray's unit direction to
+//! rounding. Where that direction lies in the cone of [`unfolded_axis`], `d̂·N` exceeds `τ = 1e-4
+//! S²` in size with one sign on the whole domain (`N = Pu × Pv`, `S` bounding `|Pu|` and `|Pv|`
+//! there), so the exact `det J` of the conics as computed keeps that sign: their coefficients
+//! are dot products of unit planes with `A, ..., E` and `F - o`, so each entry of `J` is within
+//! `5 γ(3) S` of `n·Pu` or `n·Pv` (`2 |A| + |C| + |D| <= 5 S`, as `D`, `2A + D`, `C + D` are
+//! the corners' `Pu`), `det J` within `20 γ(3) S²` of `(n1 × n2)·N`, and `n1 × n2` within a few
+//! roundings of `d̂`: under `4e-6 S²` in f32 together, against `τ`. That is the det-sign
+//! certificate's conclusion, for about a tenth of its instructions.
+//!
+//! [`unfolded_axis`]: crate::phong::patch::unfolded_axis
 
 use super::conic::Projected;
-use crate::phong::real::Real;
+use crate::phong::patch::Patch;
+use crate::phong::real::{Real, V3};
 
 /// The det-sign certificate on the domain: `det J` has one sign on all of it.
 pub(super) struct DetSign<T> {
@@ -111,6 +126,24 @@ pub(super) fn det_sign_on_domain<T: Real>(pr: &Projected<T>, j: [[T; 4]; 3]) -> 
     let c =
         [corners[0], corners[1], corners[2], mixed(&j[0], &j[1]), mixed(&j[1], &j[2]), mixed(&j[2], &j[0])];
     c.iter().all(|&x| x * sign > m).then_some(DetSign { corners: j, sign, k2, w })
+}
+
+/// [`DetSign`] on the domain where [`unfolded_along`] holds: the cone already proves what
+/// [`det_sign_on_domain`] checks, so only what [`DetSign::holds_to`] needs is computed. The sign
+/// is the corner `(0, 0)`'s, which the cone keeps far from rounding.
+#[inline(always)]
+pub(super) fn det_sign_unfolded<T: Real>(pr: &Projected<T>, j: [[T; 4]; 3]) -> DetSign<T> {
+    let sign = if det2(&j[0]) > T::ZERO { T::ONE } else { -T::ONE };
+    DetSign { corners: j, sign, k2: bound_squared(pr), w: T::from_f64(2.0) }
+}
+
+/// Whether the local ray direction `d` lies in the patch's cone of unfolded directions (see
+/// the module's comment): then `det J` keeps one sign on the domain, as
+/// [`det_sign_on_domain`] would prove, without computing it.
+#[inline(always)]
+pub(super) fn unfolded_along<T: Real>(p: &Patch<T>, d: V3<T>) -> bool {
+    let s = d.dot(p.unfolded);
+    s * s > d.dot(d)
 }
 
 /// Whether `a` and `b`, `det J` computed at two points of the domain (each entry of `J` with at

@@ -24,6 +24,7 @@ use std::ops::{Add, BitAnd, BitOr, Div, Mul, Neg, Not, Sub};
 use multiversion::multiversion;
 
 use super::conic::{Conic, Projected};
+use super::detsign::unfolded_along;
 use super::domain::{domain_tolerance, edge_band};
 use super::{dispatch, intersect_in_hull_traced, Method, PatchHit, TestOutcome};
 use crate::phong::patch::Patch;
@@ -87,7 +88,8 @@ impl LaneAnswers {
     /// `(tmin, tmax)` as given to [`certified_lanes`]. Where the kernel found both certificates
     /// refused, the scalar path starts where it stopped: the analytic method on the lane's
     /// projected conics (the scalar projection's bits), with no second projection and no second
-    /// certificate.
+    /// certificate; unless the ray lies in the patch's cone of unfolded directions, which the
+    /// kernel does not test and the scalar path certifies by.
     ///
     /// # Panics
     /// If `i >= LANES`, as [`LaneAnswers::hit`].
@@ -100,7 +102,9 @@ impl LaneAnswers {
         tmin: f32,
         tmax: f32,
     ) -> (Option<PatchHit<f32>>, TestOutcome) {
-        if self.refused >> i & 1 == 0 {
+        // A ray in the patch's cone of unfolded directions (which the kernel does not test)
+        // takes the scalar path whole, which certifies it by the cone.
+        if self.refused >> i & 1 == 0 || unfolded_along(p, dir * p.inv_scale) {
             return intersect_in_hull_traced(p, org, dir, tmin, tmax, Method::Certified);
         }
         let k = |j: usize| self.conics[j][i];
