@@ -8,6 +8,7 @@
 //! A *straight* edge (for watertight creases) keeps `P_ij = (p_i+p_j)/2`: both patches beside a
 //! crease then share the straight edge whatever their normals.
 
+use super::intersect::sliver_reach;
 use super::real::{Real, V3};
 
 /// A patch, built in f64 and stored in the precision `T` of the solver that uses it.
@@ -49,6 +50,9 @@ pub struct Patch<T> {
     /// certificate holds without being computed; see [`unfolded_axis`]). Zero where no direction
     /// is certain.
     pub(crate) unfolded: V3<T>,
+    /// How far from the frame's centre (max norm, local frame) a ray may start before an f32
+    /// miss is decided again in f64, on a sliver ([`sliver_reach`]); infinite in f64.
+    pub(crate) sliver_reach: T,
     /// Whether the patch has zero area or non-finite input: it is never hit.
     pub(crate) degenerate: bool,
 }
@@ -347,6 +351,7 @@ impl<T: Real> Patch<T> {
             prism_n: prism_n.map(|n| n.cast()),
             prism_h: prism_h.map(|h| T::from_f64(prism_slack::<T>(h))),
             unfolded: if degenerate { V3::zero() } else { unfolded.cast() },
+            sliver_reach: T::from_f64(sliver_reach::<T>(stored(a), stored(b), stored(d), stored(e))),
             degenerate,
         }
     }
@@ -401,6 +406,10 @@ impl<T: Real> Patch<T> {
             } else {
                 let stored = |x: V3<T>| x.cast::<U>().to_f64();
                 unfolded_axis([self.a, self.b, self.c, self.d, self.e].map(stored)).cast()
+            },
+            sliver_reach: {
+                let k = |x: V3<T>| x.cast::<U>().to_f64();
+                U::from_f64(sliver_reach::<U>(k(self.a), k(self.b), k(self.d), k(self.e)))
             },
             degenerate: self.degenerate,
         }

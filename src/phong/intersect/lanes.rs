@@ -555,23 +555,10 @@ fn solve_lanes(p: &Patch<f32>, hull: &HullLanes, rays: &LaneRays) -> LaneAnswers
     out
 }
 
-/// `retry`'s `inverse_height` (a copy: it is private there), the same arithmetic: the
-/// reciprocal of the flat triangle's smallest height, `longest edge / |e1 × e2|`.
-#[inline(always)]
-fn inverse_height<T: Real>(p: &Patch<T>) -> T {
-    let (e1, e2) = (p.a + p.d, p.b + p.e);
-    let e3 = e2 - e1;
-    let longest = e1.dot(e1).max(e2.dot(e2)).max(e3.dot(e3)).sqrt();
-    longest / e1.cross(e2).length()
-}
-
-/// `retry`'s `sliver_from_afar` on every lane (local origins `o`; in f32 it always applies),
-/// with the patch's [`inverse_height`] computed once.
+/// `retry`'s `sliver_from_afar` on every lane (local origins `o`), against the patch's reach.
 #[inline(always)]
 fn sliver_lanes(p: &Patch<f32>, o: V) -> M {
-    let ih = F::splat(inverse_height(p));
-    let err = F::splat(<f32 as Real>::UNIT_ROUNDOFF) * (F::splat(1.0) + o.max_abs()) * ih;
-    !(err * F::splat(4.0)).le(F::splat(edge_band::<f32>()))
+    !o.max_abs().le(F::splat(p.sliver_reach))
 }
 
 /// `hits_hull`'s first stage on every lane: `(tmin, tmax)` clipped against the bounds.

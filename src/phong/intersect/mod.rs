@@ -26,6 +26,7 @@ mod retry;
 
 pub use lanes::{certified_lanes, LaneAnswers, LaneDecision, LaneRays, LANES};
 pub use poly::{solve_cubic, solve_quadratic};
+pub(crate) use retry::sliver_reach;
 
 use super::patch::Patch;
 use super::real::{Real, V3};

@@ -27,14 +27,26 @@ fn inverse_height<T: Real>(p: &Patch<T>) -> T {
 /// the band: the miss is decided in f64 instead. A well-shaped patch (the accuracy cases have
 /// areas above 0.15 longest²) needs a ray origin over a thousand patch sizes away for this; the
 /// Stanford bunny's slivers only a few. Always false in f64 (there is no higher precision to ask).
-#[inline]
+/// The patch holds how far that is ([`sliver_reach`]), so a miss pays one comparison.
+#[inline(always)]
 pub(super) fn sliver_from_afar<T: Real>(p: &Patch<T>, o: V3<T>) -> bool {
-    if T::UNIT_ROUNDOFF.to_f64() < 1e-10 {
-        return false;
+    !(o.max_abs() <= p.sliver_reach)
+}
+
+/// [`sliver_from_afar`]'s reach for a patch stored in precision `T` with local coefficients
+/// `A`, `B`, `D`, `E` (its flat triangle's edges are `A + D` and `B + E`): the largest `|o|`
+/// (max norm, local frame) with `4 u (1 + |o|) inverse_height <= band`. Infinite in f64; NaN
+/// (every miss decided in f64) for a triangle without area.
+pub(crate) fn sliver_reach<T: Real>(a: V3<f64>, b: V3<f64>, d: V3<f64>, e: V3<f64>) -> f64 {
+    let u = T::UNIT_ROUNDOFF.to_f64();
+    if u < 1e-10 {
+        return f64::INFINITY;
     }
-    let band = edge_band::<T>();
-    let err = T::UNIT_ROUNDOFF * (T::ONE + o.max_abs()) * inverse_height(p);
-    !(err * T::from_f64(4.0) <= band)
+    let (e1, e2) = (a + d, b + e);
+    let e3 = e2 - e1;
+    let longest = e1.dot(e1).max(e2.dot(e2)).max(e3.dot(e3)).sqrt();
+    let inverse_height = longest / e1.cross(e2).length();
+    edge_band::<T>().to_f64() / (4.0 * u * inverse_height) - 1.0
 }
 
 /// The ray decided again in f64 on the same (f32) surface, from the world-space input: the f32
