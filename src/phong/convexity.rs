@@ -526,7 +526,7 @@ fn cubic_bound_negative(f0: f64, l: f64, lambda: f64, c: f64, rmax: f64, margin:
     !(r > 0.0 && r < rmax) || phi(r) < -margin
 }
 
-/// The switch for the curved rule of [`leaves_patch`] ([`leaves_curved`]): off unless turned on
+/// The switch for the curved rule of [`leaves_patch`] (`leaves_curved`, private): off unless turned on
 /// with [`curved_rule::set`] or, for a whole process, the environment variable
 /// `PHONGRT_ORIGIN_CURVED_RULE=1` (off, only the convexity and tangent-plane bounds settle rays).
 /// Off by default because on the bench's head it costs more than the solves it saves (README,

@@ -116,7 +116,7 @@ pub struct RenderArgs {
     /// A TOML scene file with camera, lights, per-object mode/alpha and render settings.
     #[arg(long)]
     pub scene_file: Option<PathBuf>,
-    /// Per-object mode, repeatable: NAME=flat or NAME=phong[:ALPHA] (overrides --mode).
+    /// Per-object mode, repeatable: NAME=flat, NAME=phong or NAME=phong:ALPHA (overrides --mode).
     #[arg(long = "object", value_name = "NAME=MODE")]
     pub objects: Vec<String>,
     /// Render threads, at least 1 [default: all cores]; more than the machine has starts what it

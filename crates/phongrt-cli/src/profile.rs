@@ -518,7 +518,7 @@ fn trace_packets(scene: &CommittedScene, packets: &[Packet], kind: RayKind) {
 }
 
 /// Set up `m`'s scenes and rays of `kind` (the bench's, `size`²), then run `what` once inside
-/// [`counted_work`], the function a callgrind run collects alone. Returns how many rays (or
+/// `counted_work` (private), the function a callgrind run collects alone. Returns how many rays (or
 /// patch solves, for [`Counted::Outcome`]) it ran.
 pub fn count_work(
     name: &str,
