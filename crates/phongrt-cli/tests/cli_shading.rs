@@ -2,17 +2,7 @@
 //! keys, and `phongrt smoothness`.
 mod common;
 
-use assert_cmd::Command;
-
-fn phongrt() -> Command {
-    let mut c = Command::cargo_bin("phongrt").unwrap();
-    c.current_dir(common::root());
-    c
-}
-
-fn stderr_of(a: &assert_cmd::assert::Assert) -> String {
-    String::from_utf8_lossy(&a.get_output().stderr).into_owned()
-}
+use common::{phongrt, stderr_of};
 
 #[test]
 fn unknown_shading_and_terminator_names_are_refused_with_the_value() {

@@ -1,28 +1,23 @@
 //! The `phongrt` command: render, info, accuracy; every bad input a one-line error and a
 //! non-zero exit, never a panic.
 use crate::common;
+use crate::common::phongrt;
 
-use assert_cmd::Command;
 use predicates::prelude::*;
 
-fn phongrt() -> Command {
-    let mut c = Command::cargo_bin("phongrt").unwrap();
-    c.current_dir(common::root());
-    c
+/// `phongrt ARGS` succeeds, and its standard output names both `a` and `b`.
+fn prints_both(args: &[&str], a: &str, b: &str) {
+    phongrt()
+        .args(args)
+        .assert()
+        .success()
+        .stdout(predicate::str::contains(a).and(predicate::str::contains(b)));
 }
 
 #[test]
 fn help_reads_well() {
-    phongrt()
-        .arg("--help")
-        .assert()
-        .success()
-        .stdout(predicate::str::contains("render").and(predicate::str::contains("info")));
-    phongrt()
-        .args(["render", "--help"])
-        .assert()
-        .success()
-        .stdout(predicate::str::contains("--mode").and(predicate::str::contains("--compare")));
+    prints_both(&["--help"], "render", "info");
+    prints_both(&["render", "--help"], "--mode", "--compare");
 }
 
 #[test]
@@ -636,11 +631,7 @@ fn info_json_parses() {
 
 #[test]
 fn completions_name_the_farm_flags() {
-    phongrt()
-        .args(["completions", "bash"])
-        .assert()
-        .success()
-        .stdout(predicate::str::contains("--tile").and(predicate::str::contains("stitch")));
+    prints_both(&["completions", "bash"], "--tile", "stitch");
 }
 
 // Issue 24: `phongrt render ... -o - >&-` exited 0 and printed the success line, but the image

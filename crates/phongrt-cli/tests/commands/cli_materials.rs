@@ -1,18 +1,7 @@
 //! The command line's camera and material choices: `--up`, `--orbit`, `--compare` with a scene
 //! file's per-object settings, material warnings.
 use crate::common;
-
-use assert_cmd::Command;
-
-fn phongrt() -> Command {
-    let mut c = Command::cargo_bin("phongrt").unwrap();
-    c.current_dir(common::root());
-    c
-}
-
-fn stderr_of(a: &assert_cmd::assert::Assert) -> String {
-    String::from_utf8_lossy(&a.get_output().stderr).into_owned()
-}
+use crate::common::{phongrt, stderr_of};
 
 #[test]
 fn compare_honours_the_scene_files_per_object_mode() {

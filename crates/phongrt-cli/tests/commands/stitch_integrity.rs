@@ -9,24 +9,12 @@ fn phongrt() -> Command {
     Command::new(common::target_dir().join("phongrt"))
 }
 
-/// Render tile `i` of `n` of a small frame into `dir/t_i.png`.
-fn tile(dir: &Path, i: u32, n: u32) -> PathBuf {
-    let out = dir.join(format!("t_{i}.png"));
-    phongrt()
-        .args(["render", "scenes/sphere_lowpoly.obj", "--width", "32", "--height", "24", "-q"])
-        .args(["--tile", &format!("{i}/{n}"), "-o"])
-        .arg(&out)
-        .current_dir(common::root())
-        .assert()
-        .success();
-    out
-}
-
 // `phongrt stitch tiles/t_0.png tiles/t_*.png` overwrote the first tile.
 #[test]
 fn stitch_refuses_an_output_that_is_one_of_its_inputs() {
     let dir = tempfile::tempdir().unwrap();
-    let tiles: Vec<PathBuf> = (0..2).map(|i| tile(dir.path(), i, 2)).collect();
+    let tiles: Vec<PathBuf> =
+        (0..2).map(|i| tile_of(dir.path(), &format!("t_{i}"), "png", i, 2, &[])).collect();
     let before = std::fs::read(&tiles[0]).unwrap();
     let out = phongrt().arg("stitch").arg(&tiles[0]).args(&tiles).assert().failure().get_output().clone();
     let err = String::from_utf8_lossy(&out.stderr);
@@ -38,7 +26,8 @@ fn stitch_refuses_an_output_that_is_one_of_its_inputs() {
 #[test]
 fn stitch_refuses_an_output_linked_to_one_of_its_inputs() {
     let dir = tempfile::tempdir().unwrap();
-    let tiles: Vec<PathBuf> = (0..2).map(|i| tile(dir.path(), i, 2)).collect();
+    let tiles: Vec<PathBuf> =
+        (0..2).map(|i| tile_of(dir.path(), &format!("t_{i}"), "png", i, 2, &[])).collect();
     let link = dir.path().join("out.png");
     std::os::unix::fs::symlink(&tiles[1], &link).unwrap();
     let before = std::fs::read(&tiles[1]).unwrap();
@@ -73,15 +62,20 @@ fn tile_of(dir: &Path, name: &str, ext: &str, i: u32, n: u32, extra: &[&str]) ->
     dir.join(format!("{name}_{:0>4}.{ext}", frame))
 }
 
+/// `phongrt stitch OUT T0 T1`, which must fail with status 2: its standard error.
+fn stitch_error(out: &Path, t0: &Path, t1: &Path) -> String {
+    let a = phongrt().arg("stitch").arg(out).arg(t0).arg(t1).assert().code(2);
+    String::from_utf8_lossy(&a.get_output().stderr).into_owned()
+}
+
 /// Stitch `a`'s tile 0 of 2 with `b`'s tile 1 of 2 and return stitch's stderr (it must fail with 2).
 fn stitch_refused(a: &[&str], b: &[&str]) -> String {
     let dir = tempfile::tempdir().unwrap();
     let t0 = tile_of(dir.path(), "t_0", "png", 0, 2, a);
     let t1 = tile_of(dir.path(), "t_1", "png", 1, 2, b);
     let out = dir.path().join("out.png");
-    let assert = phongrt().arg("stitch").arg(&out).arg(&t0).arg(&t1).assert().code(2);
+    let err = stitch_error(&out, &t0, &t1);
     assert!(!out.exists(), "stitch wrote an output it refused");
-    let err = String::from_utf8_lossy(&assert.get_output().stderr).into_owned();
     assert!(err.contains("t_0") && err.contains("t_1") && err.contains("different renders"), "{err}");
     assert_eq!(err.lines().count(), 1, "not one line: {err}");
     err
@@ -136,8 +130,7 @@ fn stitch_refuses_a_tile_whose_obj_file_changed_between_renders() {
     std::fs::write(&obj, format!("{src}\n# edited\n")).unwrap();
     let t1 = tile_of(dir.path(), "t_1", "png", 1, 2, &[obj_s]);
     let out = dir.path().join("out.png");
-    let a = phongrt().arg("stitch").arg(&out).arg(&t0).arg(&t1).assert().code(2);
-    let err = String::from_utf8_lossy(&a.get_output().stderr);
+    let err = stitch_error(&out, &t0, &t1);
     assert!(err.contains("different renders") && err.contains("digest"), "{err}");
 }
 
@@ -147,8 +140,7 @@ fn stitch_refuses_exr_tiles_of_different_renders() {
     let t0 = tile_of(dir.path(), "t_0", "exr", 0, 2, &["--seed", "1"]);
     let t1 = tile_of(dir.path(), "t_1", "exr", 1, 2, &["--seed", "2"]);
     let out = dir.path().join("out.exr");
-    let a = phongrt().arg("stitch").arg(&out).arg(&t0).arg(&t1).assert().code(2);
-    let err = String::from_utf8_lossy(&a.get_output().stderr);
+    let err = stitch_error(&out, &t0, &t1);
     assert!(err.contains("seed 2 in") && err.contains("t_1.exr"), "{err}");
 }
 
@@ -162,8 +154,7 @@ fn stitch_refuses_a_tile_that_records_no_render_digest() {
     let win = Window { x0: 0, y0: 12, x1: 32, y1: 24, full_width: 32, full_height: 24 };
     std::fs::write(&old, encode_png8(32, 12, false, &[0u8; 32 * 12 * 3], Some(win), None).unwrap()).unwrap();
     let out = dir.path().join("out.png");
-    let a = phongrt().arg("stitch").arg(&out).arg(&t0).arg(&old).assert().code(2);
-    let err = String::from_utf8_lossy(&a.get_output().stderr);
+    let err = stitch_error(&out, &t0, &old);
     assert!(err.contains("old_1.png") && err.contains("records no render digest"), "{err}");
     assert_eq!(err.lines().count(), 1, "{err}");
 }
@@ -221,8 +212,7 @@ fn stitch_refuses_a_tile_whose_texture_changed_between_renders() {
     std::fs::write(dir.path().join("duckCM.png"), tex).unwrap();
     let t1 = tile_of(dir.path(), "t_1", "png", 1, 2, &[obj_s]);
     let out = dir.path().join("out.png");
-    let a = phongrt().arg("stitch").arg(&out).arg(&t0).arg(&t1).assert().code(2);
-    let err = String::from_utf8_lossy(&a.get_output().stderr);
+    let err = stitch_error(&out, &t0, &t1);
     assert!(err.contains("different renders") && err.contains("settings differ"), "{err}");
 }
 
