@@ -374,6 +374,8 @@ impl<T: Real> Patch<T> {
         let prism_n = self.prism_n.map(|n| n.to_f64());
         // The offsets already carry T's slack; a coarser U needs its own on top.
         let coarser = U::UNIT_ROUNDOFF.to_f64() > T::UNIT_ROUNDOFF.to_f64();
+        // The coefficients as `U` stores them, in f64.
+        let stored = |x: V3<T>| x.cast::<U>().to_f64();
         let prism_h: [f64; 5] = std::array::from_fn(|k| {
             let h = self.prism_h[k].to_f64() + prism_n[k].dot(shift) + extra;
             if coarser {
@@ -400,17 +402,19 @@ impl<T: Real> Patch<T> {
             // To a finer precision the coefficients convert exactly, and the cone's margin
             // covers its axis's rounding; to a coarser one it is the rounded coefficients'.
             unfolded: if !coarser {
-                self.unfolded.cast()
+                self.unfolded.to_f64()
             } else if self.degenerate {
                 V3::zero()
             } else {
-                let stored = |x: V3<T>| x.cast::<U>().to_f64();
-                unfolded_axis([self.a, self.b, self.c, self.d, self.e].map(stored)).cast()
-            },
-            sliver_reach: {
-                let k = |x: V3<T>| x.cast::<U>().to_f64();
-                U::from_f64(sliver_reach::<U>(k(self.a), k(self.b), k(self.d), k(self.e)))
-            },
+                unfolded_axis([self.a, self.b, self.c, self.d, self.e].map(stored))
+            }
+            .cast(),
+            sliver_reach: U::from_f64(sliver_reach::<U>(
+                stored(self.a),
+                stored(self.b),
+                stored(self.d),
+                stored(self.e),
+            )),
             degenerate: self.degenerate,
         }
     }

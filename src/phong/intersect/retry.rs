@@ -13,7 +13,14 @@ use crate::phong::real::{Real, V3};
 /// well-shaped patch, about 500 for the Stanford bunny's near-collinear triangles.
 #[inline]
 fn inverse_height<T: Real>(p: &Patch<T>) -> T {
-    let (e1, e2) = (p.a + p.d, p.b + p.e);
+    flat_inverse_height(p.a, p.b, p.d, p.e)
+}
+
+/// [`inverse_height`] from the coefficients `A`, `B`, `D`, `E` (the flat triangle's edges are
+/// `A + D` and `B + E`).
+#[inline]
+fn flat_inverse_height<T: Real>(a: V3<T>, b: V3<T>, d: V3<T>, e: V3<T>) -> T {
+    let (e1, e2) = (a + d, b + e);
     let e3 = e2 - e1;
     let longest = e1.dot(e1).max(e2.dot(e2)).max(e3.dot(e3)).sqrt();
     longest / e1.cross(e2).length()
@@ -34,7 +41,7 @@ pub(super) fn sliver_from_afar<T: Real>(p: &Patch<T>, o: V3<T>) -> bool {
 }
 
 /// [`sliver_from_afar`]'s reach for a patch stored in precision `T` with local coefficients
-/// `A`, `B`, `D`, `E` (its flat triangle's edges are `A + D` and `B + E`): the largest `|o|`
+/// `A`, `B`, `D`, `E` (as [`flat_inverse_height`] takes them): the largest `|o|`
 /// (max norm, local frame) with `4 u (1 + |o|) inverse_height <= band`. Infinite in f64; NaN
 /// (every miss decided in f64) for a triangle without area.
 pub(crate) fn sliver_reach<T: Real>(a: V3<f64>, b: V3<f64>, d: V3<f64>, e: V3<f64>) -> f64 {
@@ -42,11 +49,7 @@ pub(crate) fn sliver_reach<T: Real>(a: V3<f64>, b: V3<f64>, d: V3<f64>, e: V3<f6
     if u < 1e-10 {
         return f64::INFINITY;
     }
-    let (e1, e2) = (a + d, b + e);
-    let e3 = e2 - e1;
-    let longest = e1.dot(e1).max(e2.dot(e2)).max(e3.dot(e3)).sqrt();
-    let inverse_height = longest / e1.cross(e2).length();
-    edge_band::<T>().to_f64() / (4.0 * u * inverse_height) - 1.0
+    edge_band::<T>().to_f64() / (4.0 * u * flat_inverse_height(a, b, d, e)) - 1.0
 }
 
 /// The ray decided again in f64 on the same (f32) surface, from the world-space input: the f32
