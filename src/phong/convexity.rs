@@ -96,15 +96,32 @@ pub fn convexity<T: Real>(p: &Patch<T>) -> Convexity {
 /// Whether the ray `org + t dir`, `t` in `(tnear, ..)`, starting at (or near) the point `(u0, v0)`
 /// of `p` (whose [`convexity`] is `conv`), provably never meets `p`: then its solve can be left
 /// out. The ray must leave the tangent plane at `(u0, v0)` on one side and start above everything
-/// of the patch on that side: nothing where the patch is convex towards it, otherwise the exact
-/// maximum height of the patch above the plane over the triangle (tiny for a planar patch, whose
-/// curvature is rounding; zero where the patch bends away over the whole triangle, as near an edge
-/// whose far side would rise). Computed in f64, with a margin far above its rounding;
-/// `false` whenever in doubt (a point outside the triangle, a ray along the plane, a negative
-/// `tnear`, a degenerate normal).
-/// Not inlined: the ray callbacks that call it stay lean for the other patches' tests.
-#[inline(never)]
+/// of the patch on that side: nothing where the patch is convex towards it; where the ray sees
+/// the patch unfolded, what the patch can reach near the origin (`leaves_unfolded`); otherwise
+/// the exact maximum height of the patch above the plane over the triangle (tiny for a planar
+/// patch, whose curvature is rounding; zero where the patch bends away over the whole triangle,
+/// as near an edge whose far side would rise). Computed in f64, with a margin far above its
+/// rounding; `false` whenever in doubt (a point outside the triangle, a ray along the plane, a
+/// negative `tnear`, a degenerate normal). The work is out of line (`leaves_patch_by`): the ray
+/// callbacks that call it stay lean for the other patches' tests.
 pub fn leaves_patch<T: Real>(
+    p: &Patch<T>,
+    conv: Convexity,
+    u0: f32,
+    v0: f32,
+    org: V3<f32>,
+    dir: V3<f32>,
+    tnear: f32,
+) -> bool {
+    leaves_patch_by::<T, true>(p, conv, u0, v0, org, dir, tnear)
+}
+
+/// [`leaves_patch`], with the unfolded rule ([`leaves_unfolded`]) tried where `UNFOLDED`. A
+/// packet's lanes are tested together, so leaving one lane out saves the kernel little: the
+/// packet path leaves the rule out (each choice is compiled on its own, so the packet path's
+/// code is as it was without the rule).
+#[inline(never)]
+pub(crate) fn leaves_patch_by<T: Real, const UNFOLDED: bool>(
     p: &Patch<T>,
     conv: Convexity,
     u0: f32,
@@ -121,11 +138,80 @@ pub fn leaves_patch<T: Real>(
     // Otherwise the bounded test: its tangent-plane bound only where a cheap necessary
     // condition for it holds, its curved rule (off by default) wherever that is on.
     let curved = curved_rule::on();
-    match leaves_convex(p, conv, u, v, org, dir) {
+    match leaves_convex::<T, UNFOLDED>(p, conv, u, v, org, dir) {
         Lean::Settled(settled) => settled,
         Lean::Bounded => curved && leaves_bounded(p, conv, u, v, org, dir, curved),
         Lean::MaySettle => leaves_bounded(p, conv, u, v, org, dir, curved),
     }
+}
+
+/// [`leaves_patch`] on a patch the ray sees unfolded: the ray's direction `d` keeps `d·N` of one
+/// sign over the triangle (`N = Pu × Pv`, shown on its six Bernstein coefficients), so the
+/// projection along `d` is one-to-one there and the ray meets the patch at most once. That meeting
+/// is near the origin, and behind it where the origin starts above the tangent plane by more than
+/// the patch can rise within the short reach the projection allows. Tried where the patch's cone
+/// of unfolded directions holds (one dot product in `T`, [`Patch::unfolded`]); computed in f64.
+///
+/// The proof, with `P(u0 + δ) = p0 + J0 δ + Q(δ)` (exact for a quadratic: `J0 = [Pu, Pv]` at
+/// `(u0, v0)`, `Q(δ) = A du² + B dv² + C du dv`), `g = o - p0` the origin's offset and `m` the
+/// computed normal at `(u0, v0)` (as in [`leaves_convex`]):
+/// - **Reach.** A hit `P(u, v) = o + t d` in the triangle has `π(P(u, v)) = π(o)`, `π` the
+///   projection along `d`. For a quadratic map `π P(x) - π P(y) = πJ((x + y) / 2) (x - y)`, and the
+///   midpoint of two points of the triangle is in it, so `|π g| >= σ |δ|`, `σ` the least singular
+///   value of `πJ` over the triangle, which is at least `min |d̂·N| / max ‖J‖_F` (`det πJ = d̂·N`).
+///   `d̂·N` is a convex combination of its Bernstein coefficients, and `‖J‖_F²` a convex function
+///   of the linear partials, so its largest corner value bounds it. Hence `|δ|² <= r² = |g|² |d|²
+///   max ‖J‖_F² / min_k (d·N_k)²`.
+/// - **Depth.** The dot product of the hit's equation with `m` gives `t (d·m) = m·J0 δ + m·Q(δ) -
+///   g·m`. `m·J0 δ = (m - N0)·J0 δ` is rounding (`|m - N0| <= 20 u M²`, so under `1e-12 M³ r`),
+///   and `|m·Q(δ)| <= (|A·m| + |B·m| + |C·m|) |δ|²`. So with `s` the sign of `d·m`, a height
+///   `s (g·m)` above both proves `t < 0 <= tnear`: no hit.
+/// - **Rounding.** The computed `d·N_k` are within `1e-12 M² |d|` (over 100 times their error
+///   bound, as [`leaves_convex`]'s margins), `g` within `1e-12 (M + S + |g|)` per entry, and the
+///   height within [`leaves_convex`]'s margin; `r²` and the rise carry a relative slack of 1e-3.
+#[inline(never)]
+fn leaves_unfolded<T: Real>(
+    p: &Patch<T>,
+    u: f64,
+    v: f64,
+    org: V3<f32>,
+    dir: V3<f32>,
+    t: &ConvexTerms,
+) -> bool {
+    let (h, sd, [bound, _, margin], [qa, qb, qc]) = *t;
+    let d = dir.cast::<T>();
+    let s = d.dot(p.unfolded);
+    if !(s * s > d.dot(d)) || sd == 0.0 {
+        return false;
+    }
+    // Compute the least |d·N| over the triangle from the Bernstein coefficients of d·N (as
+    // [`normal_coefficients`], with `d·(x × y) = (d × x)·y`), which must share a sign beyond
+    // their rounding.
+    let [a, b, c, du, dv, f] = coefficients_f64(p);
+    let d = dir.to_f64();
+    let pu = [du, a * 2.0 + du, c + du];
+    let pv = [dv, c + dv, b * 2.0 + dv];
+    let w = [d.cross(pu[0]), d.cross(pu[1]), d.cross(pu[2])];
+    let mixed = |i: usize, j: usize| (w[i].dot(pv[j]) + w[j].dot(pv[i])) * 0.5;
+    let e = [w[0].dot(pv[0]), w[1].dot(pv[1]), w[2].dot(pv[2]), mixed(0, 1), mixed(1, 2), mixed(2, 0)];
+    let m2 = bound * 1e12;
+    let err = 1e-12 * m2 * d.max_abs();
+    let sign = if e[0] < 0.0 { -1.0 } else { 1.0 };
+    let least = e.iter().map(|&x| sign * x).fold(f64::INFINITY, f64::min) - err;
+    if !(least > err) {
+        return false;
+    }
+    // Compute the reach r² of δ, from the largest ‖J‖_F² at a corner and the origin's offset.
+    let jf2 = (0..3).map(|i| pu[i].dot(pu[i]) + pv[i].dot(pv[i])).fold(0.0, f64::max);
+    let o = (org.to_f64() - p.center().to_f64()) * p.inv_scale().to_f64();
+    let g = o - (a * (u * u) + b * (v * v) + c * (u * v) + du * u + dv * v + f);
+    let g_err = 1e-12 * margin;
+    let g2 = 2.0 * g.dot(g) + 6.0 * g_err * g_err;
+    let r2 = 1.001 * g2 * d.dot(d) * jf2 / (least * least);
+    // Compare the origin's height with how high the patch can rise within that reach.
+    let rise = 1.001 * (qa.abs() + qb.abs() + qc.abs()) * r2 + 1e-12 * m2 * m2.sqrt() * (1.0 + r2);
+    let height = if sd < 0.0 { -h } else { h };
+    height > rise + bound * margin
 }
 
 /// What [`leaves_convex`] found: the answer, or which test is to decide.
@@ -205,7 +291,14 @@ fn edge_max(q0: f64, q1: f64, qe: f64) -> f64 {
 /// origin above the plane by more than the patch reaches, and `dir·m > 1e-12 M² |dir|` that the
 /// ray never comes closer to it (`t >= tnear >= 0`; `dl` is `dir` times the positive scale).
 #[multiversion::multiversion(targets("x86_64+avx2+fma"))]
-fn leaves_convex<T: Real>(p: &Patch<T>, conv: Convexity, u: f64, v: f64, org: V3<f32>, dir: V3<f32>) -> Lean {
+fn leaves_convex<T: Real, const UNFOLDED: bool>(
+    p: &Patch<T>,
+    conv: Convexity,
+    u: f64,
+    v: f64,
+    org: V3<f32>,
+    dir: V3<f32>,
+) -> Lean {
     let fast = multiversion::target::match_target! {
         "x86_64+avx2+fma" => convex_v3(p, u, v, org, dir),
         _ => None,
@@ -216,6 +309,8 @@ fn leaves_convex<T: Real>(p: &Patch<T>, conv: Convexity, u: f64, v: f64, org: V3
         Lean::Settled(h > bound * margin)
     } else if sd < -(bound * side) && conv.back {
         Lean::Settled(-h > bound * margin)
+    } else if UNFOLDED && leaves_unfolded(p, u, v, org, dir, &terms) {
+        Lean::Settled(true)
     } else if may_settle_bounded(&terms, u, v) {
         Lean::MaySettle
     } else {
@@ -789,7 +884,7 @@ mod tests {
     /// [`leaves_patch`] as it was before [`may_settle_bounded`] filtered the calls of the bounded
     /// test, without the curved rule.
     fn leaves_ungated(p: &Patch<f32>, u: f64, v: f64, org: V3<f32>, dir: V3<f32>) -> bool {
-        match leaves_convex(p, convexity(p), u, v, org, dir) {
+        match leaves_convex::<_, false>(p, convexity(p), u, v, org, dir) {
             Lean::Settled(settled) => settled,
             _ => leaves_bounded(p, convexity(p), u, v, org, dir, false),
         }
@@ -838,7 +933,7 @@ mod tests {
             let (uf, vf) = (u as f64, v as f64);
             let ungated = leaves_ungated(&p, uf, vf, org, dir);
             // The curved rule off: the gated answer as `leaves_patch` gives it then.
-            let gated = match leaves_convex(&p, convexity(&p), uf, vf, org, dir) {
+            let gated = match leaves_convex::<_, false>(&p, convexity(&p), uf, vf, org, dir) {
                 Lean::Settled(s) => s,
                 Lean::MaySettle => leaves_bounded(&p, convexity(&p), uf, vf, org, dir, false),
                 Lean::Bounded => {
@@ -847,7 +942,8 @@ mod tests {
                 }
             };
             assert_eq!(gated, ungated, "patch {i}: u {u} v {v} lift {lift:e} dir {dir:?}");
-            let bounded = !matches!(leaves_convex(&p, convexity(&p), uf, vf, org, dir), Lean::Settled(_));
+            let bounded =
+                !matches!(leaves_convex::<_, false>(&p, convexity(&p), uf, vf, org, dir), Lean::Settled(_));
             reached += bounded as usize;
             planar += (bounded && gated && i % 6 < 2) as usize;
             curved += (bounded && gated && i % 6 >= 2) as usize;
@@ -856,6 +952,95 @@ mod tests {
         assert!(curved > 50, "only {curved} rays settled on the curved patches");
         let unsettled = reached - planar - curved;
         assert!(turned_away * 10 > unsettled * 9, "{turned_away} of {unsettled} unsettled rays turned away");
+    }
+
+    /// The unfolded rule alone ([`leaves_unfolded`], whatever the other rules say): on saddles,
+    /// domes, bowls and random and strongly curved patches, from random points (near the edges
+    /// too) lifted by 1e-7 to 1e-2 (local units) to either side or not at all, in random and in
+    /// grazing directions, no ray it settles is hit by the f64 solve, certified or analytic; and
+    /// it settles most rays that leave a saddle upwards from above it.
+    #[test]
+    fn rays_leaving_a_patch_they_see_unfolded_are_settled_and_none_of_them_hits() {
+        use crate::phong::accuracy::{generate, Category, SplitMix};
+        let mut rng = SplitMix(71);
+        let (mut settled, mut saddle_up, mut saddle_up_settled) = (0, 0, 0);
+        for i in 0..60_000 {
+            let p: Patch<f32> = match i % 6 {
+                0 | 1 => saddle(),
+                2 => dome(0.8),
+                3 => dome(-0.8),
+                4 => {
+                    let c = generate(&mut rng, Category::RandomCurved);
+                    Patch::new(c.p, c.n, c.alpha)
+                }
+                _ => {
+                    let c = generate(&mut rng, Category::StronglyCurved);
+                    Patch::new(c.p, c.n, c.alpha)
+                }
+            };
+            let (mut u, mut v) = (rng.range(0.0, 1.0), rng.range(0.0, 1.0));
+            if u + v > 1.0 {
+                (u, v) = (1.0 - u, 1.0 - v);
+            }
+            if i % 5 == 0 {
+                u *= 1e-3;
+            }
+            let (u, v) = (u as f32, v as f32);
+            let Some(ng) = p.geometric_normal(u, v) else { continue };
+            let lift = match i % 7 {
+                0 => 0.0,
+                _ => 10f64.powf(rng.range(-7.0, -2.0)) * if rng.range(0.0, 1.0) < 0.3 { -1.0 } else { 1.0 },
+            };
+            let org = p.eval(u, v) + ng * (lift as f32 * p.scale());
+            let random =
+                V3::new(rng.range(-1.0, 1.0), rng.range(-1.0, 1.0), rng.range(-1.0, 1.0)).cast::<f32>();
+            let dir = if i % 3 == 0 {
+                // Grazing: the random direction's tangential part, tilted up by 1e-5 to 1e-1.
+                let tangent = random - ng * random.dot(ng);
+                tangent + ng * (10f64.powf(rng.range(-5.0, -1.0)) as f32 * tangent.length())
+            } else {
+                random
+            };
+            let (uf, vf) = (u as f64, v as f64);
+            let terms = convex_scalar(&p, uf, vf, org, dir);
+            let up = lift > 0.0 && dir.dot(ng) > 0.0;
+            if i % 6 < 2 && up {
+                saddle_up += 1;
+            }
+            if !leaves_unfolded(&p, uf, vf, org, dir, &terms) {
+                continue;
+            }
+            settled += 1;
+            saddle_up_settled += (i % 6 < 2 && up) as usize;
+            let p64 = p.cast::<f64>();
+            for method in [Method::Certified, Method::AnalyticPolished] {
+                let hit = intersect(&p64, org.cast(), dir.cast(), 0.0, f64::INFINITY, method);
+                assert!(
+                    hit.is_none(),
+                    "patch {i}: u {u} v {v} lift {lift:e} dir {dir:?}: {method:?} hits {hit:?}"
+                );
+            }
+        }
+
+        // 6,952 settled, 1,172 of the 8,903 rays up from above the saddle (the others leave in
+        // directions that see it fold, graze it, or start too far from it).
+        assert!(settled > 5_000, "only {settled} rays settled");
+        assert!(saddle_up_settled > 800, "{saddle_up_settled} of {saddle_up} rays up from a saddle");
+        // A ray straight up from the saddle's middle: the patch rises above the origin's tangent
+        // plane towards the corner v = 1, higher than the origin, so the bounded test cannot
+        // settle it; the unfolded rule does.
+        let p = saddle();
+        let (u, v) = (0.3f32, 0.3f32);
+        let ng = p.geometric_normal(u, v).unwrap();
+        let org = p.eval(u, v) + ng * 1e-5;
+        assert!((p.eval(0.0, 1.0) - org).dot(ng) > 0.01, "the corner v = 1 is not above the origin");
+        let (uf, vf) = (u as f64, v as f64);
+        assert!(!leaves_bounded(&p, convexity(&p), uf, vf, org, ng, false));
+        assert!(leaves_unfolded(&p, uf, vf, org, ng, &convex_scalar(&p, uf, vf, org, ng)));
+        assert!(leaves_patch(&p, convexity(&p), u, v, org, ng, 0.0));
+        // The same ray from just below the surface is not settled.
+        let below = p.eval(u, v) - ng * 1e-5;
+        assert!(!leaves_unfolded(&p, uf, vf, below, ng, &convex_scalar(&p, uf, vf, below, ng)));
     }
 
     #[test]

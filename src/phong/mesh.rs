@@ -10,7 +10,7 @@ use multiversion::multiversion;
 
 use crate::embree::user_geometry::{OriginPrim, PrimHit};
 use crate::phong::cluster::{group_by_position, hull_entries, Cluster, ClusterHull, CLUSTER_SIZE};
-use crate::phong::convexity::{audit, convexity, leaves_patch, Convexity};
+use crate::phong::convexity::{audit, convexity, leaves_patch_by, Convexity};
 use crate::phong::intersect::{certified_lanes, LaneDecision, LaneRays, LANES};
 use crate::phong::{
     intersect_in_hull_traced, intersect_traced, Method, Patch, PatchHit, ShadingNormal, TestOutcome, V3,
@@ -468,7 +468,7 @@ impl PhongMesh {
 
     /// [`PhongMesh::intersect_primitive`] for a ray that starts at `origin` (a point of one of
     /// this mesh's patches) when given: that patch is left out, without a solve, where
-    /// [`leaves_patch`] proves the ray cannot meet it again (`on_test` does not see it).
+    /// [`leaves_patch`](crate::phong::convexity::leaves_patch) proves the ray cannot meet it again (`on_test` does not see it).
     #[inline(always)]
     #[allow(clippy::too_many_arguments)]
     pub fn intersect_primitive_from(
@@ -484,7 +484,7 @@ impl PhongMesh {
         let (o, d) = (V3::from(org), V3::from(dir));
         if self.clusters.is_empty() {
             let p = self.patches.get(item as usize)?;
-            if self.leaves_origin(item, origin, o, d, tnear, tfar) {
+            if self.leaves_origin::<true>(item, origin, o, d, tnear, tfar) {
                 return None;
             }
             // The patch the ray starts on: no hull test (the ray starts inside the hull).
@@ -541,7 +541,7 @@ impl PhongMesh {
                 break;
             }
             let Some(p) = self.patches.get(prim as usize) else { continue };
-            if self.leaves_origin(prim, origin, o, d, tnear, tmax) {
+            if self.leaves_origin::<true>(prim, origin, o, d, tnear, tmax) {
                 continue;
             }
             let (hit, outcome) = intersect_in_hull_traced(p, o, d, tnear, tmax, self.method);
@@ -555,11 +555,11 @@ impl PhongMesh {
         Some(self.prim_hit(self.patches.get(prim as usize)?, prim, h))
     }
 
-    /// Whether patch `prim` is the one the ray starts on (`origin`) and [`leaves_patch`] proves
+    /// Whether patch `prim` is the one the ray starts on (`origin`) and [`leaves_patch`](crate::phong::convexity::leaves_patch) proves
     /// the ray cannot meet it again. Under the [`audit`], such a patch is solved anyway (on
     /// `(tnear, tmax)`, as the solve left out would have been) and counted.
     #[inline(always)]
-    fn leaves_origin(
+    fn leaves_origin<const UNFOLDED: bool>(
         &self,
         prim: u32,
         origin: Option<OriginPrim>,
@@ -573,7 +573,7 @@ impl PhongMesh {
         else {
             return false;
         };
-        if !leaves_patch(p, conv, origin.u, origin.v, org, dir, tnear) {
+        if !leaves_patch_by::<_, UNFOLDED>(p, conv, origin.u, origin.v, org, dir, tnear) {
             return false;
         }
         if audit::on() {
@@ -592,7 +592,7 @@ impl PhongMesh {
     /// starting at `origin[i]` when given: all of them at once (see [`certified_lanes`]) when
     /// [`PhongMesh::tests_lanes_together`], lane by lane otherwise, with the same answers
     /// either way. Lanes the lane kernel leaves unsure are solved by the scalar path from where
-    /// the kernel stopped ([`LaneAnswers::unsure_answer`](crate::phong::intersect::LaneAnswers::unsure_answer)); a lane whose origin patch [`leaves_patch`] settles is no lane of the
+    /// the kernel stopped ([`LaneAnswers::unsure_answer`](crate::phong::intersect::LaneAnswers::unsure_answer)); a lane whose origin patch [`leaves_patch`](crate::phong::convexity::leaves_patch) settles is no lane of the
     /// kernel.
     pub fn intersect_lanes(
         &self,
@@ -623,7 +623,14 @@ impl PhongMesh {
                 continue;
             }
             let (o, d) = ray(i);
-            if self.leaves_origin(item, origin[i], V3::from(o), V3::from(d), rays.tmin[i], rays.tmax[i]) {
+            if self.leaves_origin::<false>(
+                item,
+                origin[i],
+                V3::from(o),
+                V3::from(d),
+                rays.tmin[i],
+                rays.tmax[i],
+            ) {
                 live[i] = false;
             }
         }
