@@ -214,6 +214,36 @@ fn leaves_unfolded<T: Real>(
     height > rise + bound * margin
 }
 
+/// [`leaves_convex`]'s answer where the patch is not convex towards the ray's side and the
+/// unfolded rule is tried: settled by [`leaves_unfolded`], or which test is to decide. Out of
+/// line, so that [`leaves_convex`]'s convex path keeps nothing across a call.
+#[inline(never)]
+#[allow(clippy::too_many_arguments)]
+fn unfolded_or_bounded<T: Real>(
+    p: &Patch<T>,
+    u: f64,
+    v: f64,
+    org: V3<f32>,
+    dir: V3<f32>,
+    h: f64,
+    sd: f64,
+    bound: f64,
+    side: f64,
+    margin: f64,
+    qa: f64,
+    qb: f64,
+    qc: f64,
+) -> Lean {
+    let t = &(h, sd, [bound, side, margin], [qa, qb, qc]);
+    if leaves_unfolded(p, u, v, org, dir, t) {
+        Lean::Settled(true)
+    } else if may_settle_bounded(t, u, v) {
+        Lean::MaySettle
+    } else {
+        Lean::Bounded
+    }
+}
+
 /// What [`leaves_convex`] found: the answer, or which test is to decide.
 #[derive(Clone, Copy, Debug, PartialEq, Eq)]
 enum Lean {
@@ -309,8 +339,9 @@ fn leaves_convex<T: Real, const UNFOLDED: bool>(
         Lean::Settled(h > bound * margin)
     } else if sd < -(bound * side) && conv.back {
         Lean::Settled(-h > bound * margin)
-    } else if UNFOLDED && leaves_unfolded(p, u, v, org, dir, &terms) {
-        Lean::Settled(true)
+    } else if UNFOLDED {
+        let (h, sd, [bound, side, margin], [qa, qb, qc]) = terms;
+        unfolded_or_bounded(p, u, v, org, dir, h, sd, bound, side, margin, qa, qb, qc)
     } else if may_settle_bounded(&terms, u, v) {
         Lean::MaySettle
     } else {
