@@ -654,9 +654,10 @@ fn cubic_bound_negative(f0: f64, l: f64, lambda: f64, c: f64, rmax: f64, margin:
 
 /// The switch for the curved rule of [`leaves_patch`] (`leaves_curved`, private): off unless turned on
 /// with [`curved_rule::set`] or, for a whole process, the environment variable
-/// `PHONGRT_ORIGIN_CURVED_RULE=1` (off, only the convexity and tangent-plane bounds settle rays).
-/// Off by default because on the bench's head it costs more than the solves it saves (README,
-/// "The patch a shadow ray starts on"): lean as it is now (lengths shared with [`leaves_patch`],
+/// `PHONGRT_ORIGIN_CURVED_RULE=1` (off, the convexity, unfolded and tangent-plane rules settle
+/// rays). Off by default because on the bench's head it costs more than the solves it saves
+/// (`docs/speed-log.md`, "The patch a shadow ray starts on", measured before the unfolded rule):
+/// lean as it is now (lengths shared with [`leaves_patch`],
 /// one division, not tried on a bowl seen from inside) still 4,179 -> 4,221 instructions per
 /// shadow ray (`scripts/instructions.sh`'s shadow `phong` run, rule off and on).
 pub mod curved_rule {
