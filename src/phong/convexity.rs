@@ -169,6 +169,8 @@ pub(crate) fn leaves_patch_by<T: Real, const UNFOLDED: bool>(
 /// - **Rounding.** The computed `d·N_k` are within `1e-12 M² |d|` (over 100 times their error
 ///   bound, as [`leaves_convex`]'s margins), `g` within `1e-12 (M + S + |g|)` per entry, and the
 ///   height within [`leaves_convex`]'s margin; `r²` and the rise carry a relative slack of 1e-3.
+///   `s` is the exact sign: `d·N0`, a convex combination of the `d·N_k`, is beyond their least,
+///   which exceeds `1e-12 M² |d|`, far above `|d·(m - N0)|` and the rounding of `d·m`.
 #[inline(never)]
 fn leaves_unfolded<T: Real>(
     p: &Patch<T>,
