@@ -214,8 +214,16 @@ fn leaves_unfolded<T: Real>(
     // Compare the origin's height with how high the patch can rise within that reach.
     let rise = 1.001 * (qa.abs() + qb.abs() + qc.abs()) * r2 + 1e-12 * m2 * m2.sqrt() * (1.0 + r2);
     let height = if sd < 0.0 { -h } else { h };
-    height > rise + bound * margin
+    height > rise + bound * margin && height > F32_CLEARANCE * m2
 }
+
+/// How high above the surface, relative to `M²` (so about a millionth of the patch's size), an
+/// origin must start for [`leaves_unfolded`] to take it. Below that the proof still holds, but the
+/// f32 solve it leaves out can report the origin's own point as a hit at `t` of about 1e-8 (an
+/// origin within a few f32 ulps of the surface, `tnear` 0), and the packet path, which does not
+/// try the rule, would then answer otherwise. The renderer's shadow rays start 1e-6 to 1e-4 of
+/// the patch's size above it (bench's head).
+const F32_CLEARANCE: f64 = 1e-6;
 
 /// [`leaves_convex`]'s answer where the patch is not convex towards the ray's side and the
 /// unfolded rule is tried: settled by [`leaves_unfolded`], or which test is to decide. Out of
@@ -1057,10 +1065,11 @@ mod tests {
             }
         }
 
-        // 6,071 settled, 1,029 of the 8,903 rays up from above the saddle (the others leave in
-        // directions that see it fold, graze it, or start too far from it).
-        assert!(settled > 5_000, "only {settled} rays settled");
-        assert!(saddle_up_settled > 800, "{saddle_up_settled} of {saddle_up} rays up from a saddle");
+        // 2,741 settled, 618 of the 8,903 rays up from above the saddle (the others leave in
+        // directions that see it fold, graze it, start too far from it, or closer to it than
+        // `F32_CLEARANCE`).
+        assert!(settled > 2_200, "only {settled} rays settled");
+        assert!(saddle_up_settled > 500, "{saddle_up_settled} of {saddle_up} rays up from a saddle");
         // A ray straight up from the saddle's middle: the patch rises above the origin's tangent
         // plane towards the corner v = 1, higher than the origin, so the bounded test cannot
         // settle it; the unfolded rule does.
