@@ -222,7 +222,7 @@ fn leaves_unfolded<T: Real>(
 /// f32 solve it leaves out can report the origin's own point as a hit at `t` of about 1e-8 (an
 /// origin within a few f32 ulps of the surface, `tnear` 0), and the packet path, which does not
 /// try the rule, would then answer otherwise. The renderer's shadow rays start higher: of the
-/// origins the rule settled on the bench's head without it, 3,919 of 4,000 were above 1e-6 M².
+/// first 4,000 origins the rule settled on the bench's head without it, 3,919 were above 1e-6 M².
 const F32_CLEARANCE: f64 = 1e-6;
 
 /// [`leaves_convex`]'s answer where the patch is not convex towards the ray's side and the
