@@ -14,7 +14,7 @@
 
 use std::sync::atomic::{AtomicU64, AtomicU8, Ordering};
 
-use super::patch::{quadratic_range, Patch};
+use super::patch::{corner_partials, normal_bernstein, quadratic_range, Patch};
 use super::real::{Real, V3};
 
 /// The sides of a patch it is convex towards: where a flag is set, the patch lies on or below
@@ -53,16 +53,12 @@ fn product(p: &[f64; 6], q: &[f64; 6]) -> [f64; 25] {
     out
 }
 
-/// The degree-2 Bernstein coefficients of `N = Pu × Pv` over the triangle, in [`DEG2`] order:
-/// `Pu` and `Pv` are linear, so the coefficients are the corner products and, on each edge, the
-/// mean of the two cross products of one corner's `Pu` with the other's `Pv`.
+/// The degree-2 Bernstein coefficients of `N = Pu × Pv` over the triangle, in [`DEG2`] order
+/// ([`normal_bernstein`]'s).
 fn normal_coefficients(k: &[V3<f64>; 6]) -> [V3<f64>; 6] {
     let [a, b, c, d, e, _] = *k;
-    // Pu = 2A u + C v + D and Pv = C u + 2B v + E at the corners (0,0), (1,0), (0,1).
-    let pu = [d, a * 2.0 + d, c + d];
-    let pv = [e, c + e, b * 2.0 + e];
-    let mixed = |i: usize, j: usize| (pu[i].cross(pv[j]) + pu[j].cross(pv[i])) * 0.5;
-    [pu[0].cross(pv[0]), pu[1].cross(pv[1]), pu[2].cross(pv[2]), mixed(0, 1), mixed(1, 2), mixed(2, 0)]
+    let (pu, pv) = corner_partials([a, b, c, d, e]);
+    normal_bernstein(&pu, &pv)
 }
 
 /// Prove on which sides `p` is convex (see [`Convexity`]): computed in f64 from the patch's own
@@ -191,8 +187,7 @@ fn leaves_unfolded<T: Real>(
     // their rounding.
     let [a, b, c, du, dv, f] = coefficients_f64(p);
     let d = dir.to_f64();
-    let pu = [du, a * 2.0 + du, c + du];
-    let pv = [dv, c + dv, b * 2.0 + dv];
+    let (pu, pv) = corner_partials([a, b, c, du, dv]);
     let w = [d.cross(pu[0]), d.cross(pu[1]), d.cross(pu[2])];
     let mixed = |i: usize, j: usize| (w[i].dot(pv[j]) + w[j].dot(pv[i])) * 0.5;
     let e = [w[0].dot(pv[0]), w[1].dot(pv[1]), w[2].dot(pv[2]), mixed(0, 1), mixed(1, 2), mixed(2, 0)];

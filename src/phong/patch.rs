@@ -229,15 +229,10 @@ fn bounds_pad<T: Real>() -> f64 {
 /// f64 with square roots only (no `acos`): `cos φ_i = c cos θ_i + sin(acos c) sin θ_i`,
 /// `c = τ / |N_i|`.
 pub(crate) fn unfolded_axis(k: [V3<f64>; 5]) -> V3<f64> {
-    let [a, b, c, d, e] = k;
-    // Compute the partials at the corners (0, 0), (1, 0), (0, 1), their bound S, and the six
-    // Bernstein coefficients of N.
-    let pu = [d, a * 2.0 + d, c + d];
-    let pv = [e, c + e, b * 2.0 + e];
+    // Compute the partials at the corners, their bound S, and the six Bernstein coefficients of N.
+    let (pu, pv) = corner_partials(k);
     let s = pu.iter().chain(&pv).map(|x| x.length()).fold(0.0, f64::max);
-    let mixed = |i: usize, j: usize| (pu[i].cross(pv[j]) + pu[j].cross(pv[i])) * 0.5;
-    let n =
-        [pu[0].cross(pv[0]), pu[1].cross(pv[1]), pu[2].cross(pv[2]), mixed(0, 1), mixed(1, 2), mixed(2, 0)];
+    let n = normal_bernstein(&pu, &pv);
     let tau = 1e-4 * s * s;
     let len = n.map(|x| x.length());
     if !len.iter().all(|&l| l > tau && l.is_finite()) {
@@ -261,6 +256,25 @@ pub(crate) fn unfolded_axis(k: [V3<f64>; 5]) -> V3<f64> {
     }
     let sin_phi = (1.0 - cos_phi * cos_phi).max(0.0).sqrt();
     axis * (1.0 / (cos_phi * cos_m + sin_phi * sin_m))
+}
+
+/// `Pu = 2A u + C v + D` and `Pv = C u + 2B v + E` of the patch with coefficients
+/// `[A, B, C, D, E]` at the domain's corners `(0, 0)`, `(1, 0)`, `(0, 1)`.
+#[inline(always)]
+pub(crate) fn corner_partials(k: [V3<f64>; 5]) -> ([V3<f64>; 3], [V3<f64>; 3]) {
+    let [a, b, c, d, e] = k;
+    ([d, a * 2.0 + d, c + d], [e, c + e, b * 2.0 + e])
+}
+
+/// The degree-2 Bernstein coefficients of `N = Pu × Pv` over the triangle from the corner
+/// partials ([`corner_partials`]): `Pu` and `Pv` are linear, so they are the corner products
+/// and, on each edge, the mean of the two cross products of one corner's `Pu` with the other's
+/// `Pv`; in the order corners `(0, 0)`, `(1, 0)`, `(0, 1)`, then edges `(0, 0)-(1, 0)`,
+/// `(1, 0)-(0, 1)`, `(0, 1)-(0, 0)`.
+#[inline(always)]
+pub(crate) fn normal_bernstein(pu: &[V3<f64>; 3], pv: &[V3<f64>; 3]) -> [V3<f64>; 6] {
+    let mixed = |i: usize, j: usize| (pu[i].cross(pv[j]) + pu[j].cross(pv[i])) * 0.5;
+    [pu[0].cross(pv[0]), pu[1].cross(pv[1]), pu[2].cross(pv[2]), mixed(0, 1), mixed(1, 2), mixed(2, 0)]
 }
 
 impl<T: Real> Patch<T> {
