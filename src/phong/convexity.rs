@@ -177,9 +177,12 @@ fn leaves_unfolded<T: Real>(
     t: &ConvexTerms,
 ) -> bool {
     let (h, sd, [bound, _, margin], [qa, qb, qc]) = *t;
+    // An origin on the ray's side, clear of the surface, whose direction is in the cone.
+    let height = if sd < 0.0 { -h } else { h };
+    let m2 = bound * 1e12;
     let d = dir.cast::<T>();
     let s = d.dot(p.unfolded);
-    if !(s * s > d.dot(d)) || sd == 0.0 {
+    if !(height > F32_CLEARANCE * m2) || !(s * s > d.dot(d)) || sd == 0.0 {
         return false;
     }
     // Compute the least |d·N| over the triangle from the Bernstein coefficients of d·N (as
@@ -191,7 +194,6 @@ fn leaves_unfolded<T: Real>(
     let w = [d.cross(pu[0]), d.cross(pu[1]), d.cross(pu[2])];
     let mixed = |i: usize, j: usize| (w[i].dot(pv[j]) + w[j].dot(pv[i])) * 0.5;
     let e = [w[0].dot(pv[0]), w[1].dot(pv[1]), w[2].dot(pv[2]), mixed(0, 1), mixed(1, 2), mixed(2, 0)];
-    let m2 = bound * 1e12;
     let err = 1e-12 * m2 * d.max_abs();
     let sign = if e[0] < 0.0 { -1.0 } else { 1.0 };
     let least = e.iter().map(|&x| sign * x).fold(f64::INFINITY, f64::min) - err;
@@ -208,8 +210,7 @@ fn leaves_unfolded<T: Real>(
     let r2 = 1.001 * g2 * d.dot(d) * jf2 / (least * least);
     // Compare the origin's height with how high the patch can rise within that reach.
     let rise = 1.001 * (qa.abs() + qb.abs() + qc.abs()) * r2 + 1e-12 * m2 * m2.sqrt() * (1.0 + r2);
-    let height = if sd < 0.0 { -h } else { h };
-    height > rise + bound * margin && height > F32_CLEARANCE * m2
+    height > rise + bound * margin
 }
 
 /// How high above the surface, relative to `M²` (so about a millionth of the patch's size), an
