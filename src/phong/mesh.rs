@@ -468,7 +468,8 @@ impl PhongMesh {
 
     /// [`PhongMesh::intersect_primitive`] for a ray that starts at `origin` (a point of one of
     /// this mesh's patches) when given: that patch is left out, without a solve, where
-    /// [`leaves_patch`](crate::phong::convexity::leaves_patch) proves the ray cannot meet it again (`on_test` does not see it).
+    /// [`leaves_patch`](crate::phong::convexity::leaves_patch) proves the ray cannot meet it
+    /// again (`on_test` does not see it).
     #[inline(always)]
     #[allow(clippy::too_many_arguments)]
     pub fn intersect_primitive_from(
@@ -555,8 +556,9 @@ impl PhongMesh {
         Some(self.prim_hit(self.patches.get(prim as usize)?, prim, h))
     }
 
-    /// Whether patch `prim` is the one the ray starts on (`origin`) and [`leaves_patch`](crate::phong::convexity::leaves_patch) proves
-    /// the ray cannot meet it again. Under the [`audit`], such a patch is solved anyway (on
+    /// Whether patch `prim` is the one the ray starts on (`origin`) and
+    /// [`leaves_patch`](crate::phong::convexity::leaves_patch) proves the ray cannot meet it again
+    /// (the unfolded rule tried where `UNFOLDED`). Under the [`audit`], such a patch is solved anyway (on
     /// `(tnear, tmax)`, as the solve left out would have been) and counted.
     #[inline(always)]
     fn leaves_origin<const UNFOLDED: bool>(
@@ -592,8 +594,10 @@ impl PhongMesh {
     /// starting at `origin[i]` when given: all of them at once (see [`certified_lanes`]) when
     /// [`PhongMesh::tests_lanes_together`], lane by lane otherwise, with the same answers
     /// either way. Lanes the lane kernel leaves unsure are solved by the scalar path from where
-    /// the kernel stopped ([`LaneAnswers::unsure_answer`](crate::phong::intersect::LaneAnswers::unsure_answer)); a lane whose origin patch [`leaves_patch`](crate::phong::convexity::leaves_patch) settles is no lane of the
-    /// kernel.
+    /// the kernel stopped
+    /// ([`LaneAnswers::unsure_answer`](crate::phong::intersect::LaneAnswers::unsure_answer)); a
+    /// lane whose origin patch [`leaves_patch`](crate::phong::convexity::leaves_patch) settles,
+    /// without its unfolded rule, is no lane of the kernel.
     pub fn intersect_lanes(
         &self,
         item: u32,
