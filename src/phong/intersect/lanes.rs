@@ -71,8 +71,11 @@ pub struct LaneAnswers {
     pub v: [f32; LANES],
     /// Bit `i` set where lane `i` is unsure because both certificates refused it.
     refused: u32,
-    /// The projected conics' 12 coefficients (`F`'s, then `G`'s), per lane, where `refused`.
-    conics: [[f32; LANES]; 12],
+    /// The projected conics' 12 coefficients (`F`'s, then `G`'s), per lane, where `refused` has
+    /// a lane. An `Option`, so that a call that refuses none (nearly all) writes no 384 bytes of
+    /// them: its answers are made with `None`, a tag, where the array itself cost a `memset` per
+    /// call.
+    conics: Option<[[f32; LANES]; 12]>,
 }
 
 impl LaneAnswers {
@@ -104,10 +107,11 @@ impl LaneAnswers {
     ) -> (Option<PatchHit<f32>>, TestOutcome) {
         // A ray in the patch's cone of unfolded directions (which the kernel does not test)
         // takes the scalar path whole, which certifies it by the cone.
-        if self.refused >> i & 1 == 0 || unfolded_along(p, dir * p.inv_scale) {
+        let conics = self.conics.as_ref().filter(|_| self.refused >> i & 1 != 0);
+        let Some(conics) = conics.filter(|_| !unfolded_along(p, dir * p.inv_scale)) else {
             return intersect_in_hull_traced(p, org, dir, tmin, tmax, Method::Certified);
-        }
-        let k = |j: usize| self.conics[j][i];
+        };
+        let k = |j: usize| conics[j][i];
         let pr = Projected {
             f: Conic { k: [k(0), k(1), k(2), k(3), k(4), k(5)] },
             g: Conic { k: [k(6), k(7), k(8), k(9), k(10), k(11)] },
@@ -162,7 +166,7 @@ impl LaneAnswers {
             u: [0.0; LANES],
             v: [0.0; LANES],
             refused: 0,
-            conics: [[0.0; LANES]; 12],
+            conics: None,
         }
     }
 }
@@ -548,9 +552,11 @@ fn solve_lanes(p: &Patch<f32>, hull: &HullLanes, rays: &LaneRays) -> LaneAnswers
     // The refused lanes' conics, for the scalar path's analytic method.
     out.refused = lanes.refused.bits();
     if out.refused != 0 {
+        let mut conics = [[0.0; LANES]; 12];
         for j in 0..6 {
-            (out.conics[j], out.conics[j + 6]) = (pr.f[j].0, pr.g[j].0);
+            (conics[j], conics[j + 6]) = (pr.f[j].0, pr.g[j].0);
         }
+        out.conics = Some(conics);
     }
     out
 }
