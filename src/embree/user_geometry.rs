@@ -836,6 +836,10 @@ unsafe fn for_each_candidate8<T: UserPrimitives>(
         }
     }
     let hits = data.intersect_packet8(prim, &rays, active, &origins);
+    // Most calls find no hit: one test of the eight answers, without a branch per lane.
+    if !hits.iter().fold(false, |any, h| any | h.is_some()) {
+        return;
+    }
     for lane in 0..LANES {
         let (true, Some(first)) = (active[lane], hits[lane]) else { continue };
         // SAFETY: lane < LANES (contract).
