@@ -1023,7 +1023,7 @@ unsafe fn occluded_one<T: UserPrimitives>(
     let head = if id == 0 { None } else { registered(a.context) };
     // SAFETY: `head` is registered for the running query, `a.context` Embree's pointer to its
     // context.
-    let from = head.and_then(|head| unsafe { origin_in(head, a.context, a.geomID, id) });
+    let from = unsafe { Origins::of(head, a.context, a.geomID) }.get(id);
     // SAFETY: lane 0 of an RTCRayN of width 1.
     let r = unsafe { read_ray(ray, 0) };
     if let Some(first) = data.intersect_from(a.primID, from, r.org, r.dir, r.tnear, r.tfar) {
@@ -1071,13 +1071,13 @@ unsafe fn occluded_lanes<T: UserPrimitives>(
     // SAFETY: `valid` points to N ints (RTCOccludedFunctionNArguments contract).
     let valid = unsafe { std::slice::from_raw_parts(a.valid, n) };
     let ray = Soa { base: a.ray as *mut u32, n };
-    // The registration once for the packet, each lane's entry by its id.
+    // The registration and its origins once for the packet, each lane's entry by its id.
     let head = registered(a.context);
-    let origin = |lane: usize| {
-        // SAFETY: lane < n in an RTCRayN of width n; `head` is registered for the running query
-        // and `a.context` is Embree's pointer to its context.
-        unsafe { origin_in(head?, a.context, a.geomID, ray.u(RAY_ID, lane)) }
-    };
+    // SAFETY: `head` is registered for the running query and `a.context` is Embree's pointer to
+    // its context.
+    let origins = unsafe { Origins::of(head, a.context, a.geomID) };
+    // SAFETY: lane < n in an RTCRayN of width n.
+    let origin = |lane: usize| origins.get(unsafe { ray.u(RAY_ID, lane) });
     let mut offer = OccludedOffer { args, ray, cand: Candidates::new(n), blockers: Blockers::of(head) };
     // SAFETY: `ray` is the ray part of the packet Embree passed, of width n, and the offer is
     // made for it.
@@ -1211,7 +1211,7 @@ impl<const N: usize> OriginContext<N> {
         let p: *mut Self = self;
         // SAFETY: `p` points to `self`, borrowed exclusively for this call; the base is the one
         // part Embree writes through (its instance stack), and the callbacks read the rest (the
-        // length and the origins) through `p`, registered below (origin_in).
+        // length and the origins) through `p`, registered below (`Origins::of`).
         let base = unsafe { &mut (*p).head.base };
         let mut args = OccludedArgs::new().flags(query_flags(coherent)).context(base);
         let _outer = Registered(ORIGIN_CONTEXT.with(|c| c.replace(p as *const OriginHead)));
@@ -1226,34 +1226,72 @@ fn registered(context: *const sys::RTCRayQueryContext) -> Option<*const OriginHe
     (!head.is_null() && head as *const sys::RTCRayQueryContext == context).then_some(head)
 }
 
-/// The origin of the ray with `id` in the registered context `head` when it starts on geometry
-/// `geom` at the instance level the query is at now (the context's instance stack): `None` for
-/// a ray that names no entry (`id == 0`, or past the origins).
-///
-/// # Safety
-/// `head` must be the registered context of the running query ([`registered`]), and `context`
-/// Embree's pointer to it.
-#[inline(always)]
-unsafe fn origin_in(
-    head: *const OriginHead,
-    context: *const sys::RTCRayQueryContext,
+/// The origins of the registered context a callback runs under, as it reads them: where the
+/// entries are, how many, and what an entry must match to be an origin on this geometry (the
+/// callback's geometry and the context's instance stack now), read once per callback.
+#[derive(Clone, Copy)]
+struct Origins {
+    entries: *const RayOrigin,
+    len: usize,
     geom: u32,
-    id: u32,
-) -> Option<OriginPrim> {
-    let k = (id as usize).checked_sub(1)?;
-    // SAFETY: `head` is the registered context of the query this callback runs under, which
-    // `OriginContext::query` keeps alive (on its caller's stack) until it returns; its length
-    // and origins are read through the registered pointer (Embree writes only the base), the
-    // origins from right after the head (asserted above), entry k in bounds. The instance stack
-    // is read through Embree's own pointer to the base.
-    unsafe {
-        let len = std::ptr::addr_of!((*head).len).read();
-        if k >= len {
+    stack: [u32; MAX_INSTANCE_LEVEL_COUNT],
+}
+
+impl Origins {
+    /// No origins: every ray's is `None`.
+    const NONE: Origins = Origins {
+        entries: std::ptr::null(),
+        len: 0,
+        geom: u32::MAX,
+        stack: [u32::MAX; MAX_INSTANCE_LEVEL_COUNT],
+    };
+
+    /// The origins of the registered context `head` ([`registered`]), none without one, for a
+    /// callback on geometry `geom`.
+    ///
+    /// # Safety
+    /// `head` must be the registered context of the running query, and `context` Embree's
+    /// pointer to it.
+    #[inline(always)]
+    unsafe fn of(
+        head: Option<*const OriginHead>,
+        context: *const sys::RTCRayQueryContext,
+        geom: u32,
+    ) -> Self {
+        let Some(head) = head else { return Origins::NONE };
+        // SAFETY: `head` is the registered context of the query this callback runs under, which
+        // `OriginContext::query` keeps alive (on its caller's stack) until it returns; its length
+        // is read through the registered pointer (Embree writes only the base), and the origins
+        // start right after the head (asserted above). The instance stack is read through
+        // Embree's own pointer to the base.
+        unsafe {
+            Origins {
+                entries: head.add(1) as *const RayOrigin,
+                len: std::ptr::addr_of!((*head).len).read(),
+                geom,
+                stack: (*context).instID,
+            }
+        }
+    }
+
+    /// The origin of the ray with `id` when it starts on this geometry at the instance level
+    /// the query is at now: `None` for a ray that names no entry (`id == 0`, or past the
+    /// origins).
+    #[inline(always)]
+    fn get(&self, id: u32) -> Option<OriginPrim> {
+        // `id == 0` wraps past every length.
+        let k = (id as usize).wrapping_sub(1);
+        if k >= self.len {
             return None;
         }
-        let o = (head.add(1) as *const RayOrigin).add(k).read();
-        let stack = (*context).instID;
-        (o.geom_id == geom && o.inst_id == stack).then_some(OriginPrim { prim: o.prim, u: o.u, v: o.v })
+        // SAFETY: entry k < len of the registered context's origins, alive for the running
+        // query (`Origins::of`).
+        let o = unsafe { self.entries.add(k).read() };
+        (o.geom_id == self.geom && o.inst_id == self.stack).then_some(OriginPrim {
+            prim: o.prim,
+            u: o.u,
+            v: o.v,
+        })
     }
 }
 
