@@ -1228,7 +1228,9 @@ fn registered(context: *const sys::RTCRayQueryContext) -> Option<*const OriginHe
 
 /// The origins of the registered context a callback runs under, as it reads them: where the
 /// entries are, how many, and what an entry must match to be an origin on this geometry (the
-/// callback's geometry and the context's instance stack now), read once per callback.
+/// callback's geometry and the context's instance stack now), read once per callback. Made by
+/// [`Origins::of`] in a callback and used only there, while its query runs: the entries stay
+/// valid that long, which is what [`Origins::get`] relies on.
 #[derive(Clone, Copy)]
 struct Origins {
     entries: *const RayOrigin,
