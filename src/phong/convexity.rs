@@ -14,7 +14,7 @@
 
 use std::sync::atomic::{AtomicU64, AtomicU8, Ordering};
 
-use super::patch::{corner_partials, normal_bernstein, quadratic_range, Patch};
+use super::patch::{bilinear_bernstein, corner_partials, normal_bernstein, quadratic_range, Patch};
 use super::real::{Real, V3};
 
 /// The sides of a patch it is convex towards: where a flag is set, the patch lies on or below
@@ -192,8 +192,7 @@ fn leaves_unfolded<T: Real>(
     let d = dir.to_f64();
     let (pu, pv) = corner_partials([a, b, c, du, dv]);
     let w = [d.cross(pu[0]), d.cross(pu[1]), d.cross(pu[2])];
-    let mixed = |i: usize, j: usize| (w[i].dot(pv[j]) + w[j].dot(pv[i])) * 0.5;
-    let e = [w[0].dot(pv[0]), w[1].dot(pv[1]), w[2].dot(pv[2]), mixed(0, 1), mixed(1, 2), mixed(2, 0)];
+    let e = bilinear_bernstein(|i, j| w[i].dot(pv[j]));
     let err = 1e-12 * m2 * d.max_abs();
     let sign = if e[0] < 0.0 { -1.0 } else { 1.0 };
     let least = e.iter().map(|&x| sign * x).fold(f64::INFINITY, f64::min) - err;

@@ -267,14 +267,24 @@ pub(crate) fn corner_partials(k: [V3<f64>; 5]) -> ([V3<f64>; 3], [V3<f64>; 3]) {
 }
 
 /// The degree-2 Bernstein coefficients of `N = Pu × Pv` over the triangle from the corner
-/// partials ([`corner_partials`]): `Pu` and `Pv` are linear, so they are the corner products
-/// and, on each edge, the mean of the two cross products of one corner's `Pu` with the other's
-/// `Pv`; in the order corners `(0, 0)`, `(1, 0)`, `(0, 1)`, then edges `(0, 0)-(1, 0)`,
-/// `(1, 0)-(0, 1)`, `(0, 1)-(0, 0)`.
+/// partials ([`corner_partials`]), as [`bilinear_bernstein`] gives them.
 #[inline(always)]
 pub(crate) fn normal_bernstein(pu: &[V3<f64>; 3], pv: &[V3<f64>; 3]) -> [V3<f64>; 6] {
-    let mixed = |i: usize, j: usize| (pu[i].cross(pv[j]) + pu[j].cross(pv[i])) * 0.5;
-    [pu[0].cross(pv[0]), pu[1].cross(pv[1]), pu[2].cross(pv[2]), mixed(0, 1), mixed(1, 2), mixed(2, 0)]
+    bilinear_bernstein(|i, j| pu[i].cross(pv[j]))
+}
+
+/// The degree-2 Bernstein coefficients over the triangle of a product `f(Pu, Pv)` bilinear in
+/// the linear partials, from `f` at pairs of corners (`f(i, j)`: corner `i`'s `Pu` with corner
+/// `j`'s `Pv`, corners `(0, 0)`, `(1, 0)`, `(0, 1)`): the corner products and, on each edge, the
+/// mean of the two mixed ones; in the order corners, then edges `(0, 0)-(1, 0)`,
+/// `(1, 0)-(0, 1)`, `(0, 1)-(0, 0)`.
+#[inline(always)]
+pub(crate) fn bilinear_bernstein<X>(f: impl Fn(usize, usize) -> X) -> [X; 6]
+where
+    X: Copy + std::ops::Add<Output = X> + std::ops::Mul<f64, Output = X>,
+{
+    let mixed = |i: usize, j: usize| (f(i, j) + f(j, i)) * 0.5;
+    [f(0, 0), f(1, 1), f(2, 2), mixed(0, 1), mixed(1, 2), mixed(2, 0)]
 }
 
 impl<T: Real> Patch<T> {
