@@ -75,7 +75,11 @@ pub(super) fn analytic_projected<T: Real>(
     // ambiguous miss, which the caller decides again in f64, where the lean solve settles it;
     // cheaper than the full search in f32, which nearly always ends there too).
     if polish {
-        match lean(p, &ray, (&cf, nf), (&cg, ng)) {
+        let lean = match lean_member(&cf, nf, &cg, ng) {
+            Some((member, other)) => lean_roots(p, &ray, other, member),
+            None => Err(Undecided::Other),
+        };
+        match lean {
             Ok(answer) => return answer,
             Err(Undecided::NearTangent) if T::UNIT_ROUNDOFF.to_f64() > 1e-10 => {
                 return (None, Ambiguity { miss: true, hit: false })
@@ -84,6 +88,43 @@ pub(super) fn analytic_projected<T: Real>(
         }
     }
     full_search(p, &ray, &cf, &cg)
+}
+
+/// [`analytic_projected`] with polish, for a ray whose lean member is already known: `member`
+/// is what [`lean_member`] gives for the conics `pr` (the packet kernel computes it for its
+/// refused lanes together), so the answer is the same, bit for bit.
+#[inline(always)]
+pub(super) fn analytic_from_member<T: Real>(
+    p: &Patch<T>,
+    o: V3<T>,
+    d: V3<T>,
+    pr: &Projected<T>,
+    tmin: T,
+    tmax: T,
+    member: LeanMember<T>,
+) -> (Option<PatchHit<T>>, Ambiguity) {
+    let ray = LocalRay { o, d, tmin, tmax, polish: true };
+    let other = if member.meets_g { &pr.g } else { &pr.f };
+    lean_answer(lean_roots(p, &ray, other, member)).unwrap_or_else(|| full_search(p, &ray, &pr.f, &pr.g))
+}
+
+/// The lean solve's answer, or `None` where the full search must decide. A near tangency in a
+/// coarser precision than f64 is left undecided: an ambiguous miss, which the caller decides
+/// again in f64, where the lean solve settles it (cheaper than the full search in f32, which
+/// nearly always ends there too). [`analytic_projected`] writes the same match out: through
+/// this function its analytic hits cost 68 instructions more (1,813 against 1,745 on the
+/// sphere's primary rays, `scripts/instructions.sh`).
+#[inline(always)]
+fn lean_answer<T: Real>(
+    lean: Result<(Option<PatchHit<T>>, Ambiguity), Undecided>,
+) -> Option<(Option<PatchHit<T>>, Ambiguity)> {
+    match lean {
+        Ok(answer) => Some(answer),
+        Err(Undecided::NearTangent) if T::UNIT_ROUNDOFF.to_f64() > 1e-10 => {
+            Some((None, Ambiguity { miss: true, hit: false }))
+        }
+        Err(_) => None,
+    }
 }
 
 /// The full search of [`analytic_projected`], for what the lean solve cannot decide (but a near
@@ -298,31 +339,55 @@ impl<T: Real> Search<T> {
     }
 }
 
-/// The lean analytic solve: one degenerate member of the pencil (the root of the cubic whose
-/// member is most clearly a real line pair), its two lines met with the other conic, and Newton
-/// polish of the nearest root in the domain only. `None` where the answer would rest on a step
-/// within rounding (a degenerate or near-flat pencil, no clear line pair, a near tangency, a
-/// spurious root, a polish that diverged), with the reason ([`Undecided`]): then the full
-/// search of [`analytic_projected`] decides, with its ambiguity flags, or f64 decides. The
-/// conics come with their sizes ([`Conic::norm`]). A line within rounding of tangent to the other
-/// conic whose points stay far from the domain is passed over.
+/// The member of the pencil the lean solve takes (the root of the cubic whose member is most
+/// clearly a real line pair), split into its two lines, with the conic those lines meet.
+#[derive(Clone, Copy, Debug, PartialEq)]
+pub(super) struct LeanMember<T> {
+    /// The two lines `(l0, l1, l2)`: `l0 u + l1 v + l2 = 0`.
+    pub(super) lines: [[T; 3]; 2],
+    /// The lines meet `G` (the member's root `|x| > 1`), else `F`.
+    pub(super) meets_g: bool,
+    /// Two roots of the cubic are within rounding of a double root.
+    pub(super) near_multiple: bool,
+}
+
+/// The lean analytic solve's first half: one degenerate member of the pencil of `F` and `G`
+/// (with their sizes, [`Conic::norm`]), every intersection point of the two conics lying on
+/// it, split into its lines ([`LeanMember`]). `None` for a degenerate or near-flat pencil or
+/// no member clearly a line pair: the full search's cases.
 #[inline(always)]
-fn lean<T: Real>(
-    p: &Patch<T>,
-    ray: &LocalRay<T>,
-    (cf, nf): (&Conic<T>, T),
-    (cg, ng): (&Conic<T>, T),
-) -> Result<(Option<PatchHit<T>>, Ambiguity), Undecided> {
-    // Compute one member: every intersection point of the two conics lies on it.
+pub(super) fn lean_member<'a, T: Real>(
+    cf: &'a Conic<T>,
+    nf: T,
+    cg: &'a Conic<T>,
+    ng: T,
+) -> Option<(LeanMember<T>, &'a Conic<T>)> {
     let (m, n) = (sym_of(cf), sym_of(cg));
-    let (x, near_multiple) = line_pair_root(&m, &n, nf, ng).ok_or(Undecided::Other)?;
-    let (h, other) = if x.abs() <= T::ONE {
-        (std::array::from_fn(|i| x * m[i] + n[i]), cf)
+    let (x, near_multiple) = line_pair_root(&m, &n, nf, ng)?;
+    let (h, other, meets_g) = if x.abs() <= T::ONE {
+        (std::array::from_fn(|i| x * m[i] + n[i]), cf, false)
     } else {
         let ix = T::ONE / x;
-        (std::array::from_fn(|i| m[i] + ix * n[i]), cg)
+        (std::array::from_fn(|i| m[i] + ix * n[i]), cg, true)
     };
-    let lines = split_line_pair(&h).ok_or(Undecided::Other)?;
+    let lines = split_line_pair(&h)?;
+    Some((LeanMember { lines, meets_g, near_multiple }, other))
+}
+
+/// The lean analytic solve's second half: the lines of the member ([`lean_member`]) met with
+/// the other conic, and Newton polish of the nearest root in the domain only. `Err` where the
+/// answer would rest on a step within rounding (a near tangency, a spurious root, a polish that
+/// diverged), with the reason ([`Undecided`]): then the full search of [`analytic_projected`]
+/// decides, with its ambiguity flags, or f64 decides. A line within rounding of tangent to the
+/// other conic whose points stay far from the domain is passed over.
+#[inline(always)]
+fn lean_roots<T: Real>(
+    p: &Patch<T>,
+    ray: &LocalRay<T>,
+    other: &Conic<T>,
+    member: LeanMember<T>,
+) -> Result<(Option<PatchHit<T>>, Ambiguity), Undecided> {
+    let LeanMember { lines, near_multiple, .. } = member;
     // Compute the roots on its lines near the domain, gated by the distance to the ray.
     let s = Search::<T>::new(near_multiple);
     let (tol2, polish_band) = (s.size_tol * s.size_tol, edge_band::<T>() * T::from_f64(4.0));

@@ -12,6 +12,7 @@
 use multiversion::target::match_target;
 use multiversion::{inherit_target, multiversion};
 
+use super::analytic::LeanMember;
 use super::conic::Projected;
 use super::hull::hits_hull;
 #[cfg(target_arch = "x86_64")]
@@ -76,8 +77,9 @@ pub(super) fn intersect_dispatched<T: Real>(
 }
 
 /// The certified method's answer for a ray both its certificates refused, from the ray's
-/// projected conics `pr` (as [`super::conic::project`] gives them for the local ray): the
-/// analytic method and its f64 retry, in the version this CPU runs best (as
+/// projected conics `pr` (as [`super::conic::project`] gives them for the local ray) and, where
+/// known, the lean solve's `member` of their pencil (as [`lean_member`](super::analytic::lean_member)
+/// gives it): the analytic method and its f64 retry, in the version this CPU runs best (as
 /// [`intersect_dispatched`]). The same answer as [`intersect_dispatched`] with
 /// [`Method::Certified`] gives such a ray, bit for bit.
 #[multiversion(targets("x86_64+avx2+fma"))]
@@ -88,9 +90,10 @@ pub(super) fn refused_dispatched<T: Real>(
     tmin: T,
     tmax: T,
     pr: &Projected<T>,
+    member: Option<LeanMember<T>>,
 ) -> (Option<PatchHit<T>>, TestOutcome) {
     let (o, d) = to_local(p, org, dir);
-    analytic_tail(p, (org, dir), o, d, pr, tmin, tmax)
+    analytic_tail(p, (org, dir), o, d, pr, tmin, tmax, member)
 }
 
 /// [`intersect_with`] in its baseline version, whatever the CPU: for comparing the two.

@@ -13,7 +13,9 @@
 //! it leaves [`LaneDecision::Unsure`], for the scalar path through
 //! [`LaneAnswers::unsure_answer`]: the analytic method at once, from the lane's projected conics,
 //! where both certificates refused it, [`intersect_in_hull_traced`](super::intersect_in_hull_traced)
-//! (the hull passed) otherwise.
+//! (the hull passed) otherwise. For the refused lanes, the first half of the lean analytic solve
+//! (the pencil's line-pair member and its lines, [`member`]) runs here too, on all of them
+//! together, and the scalar path goes on from the member of each.
 
 // The lane loops index every array by the lane: the form the vectoriser turns into one
 // instruction per operation.
@@ -22,6 +24,9 @@
 use std::ops::{Add, BitAnd, BitOr, Div, Mul, Neg, Not, Sub};
 
 use multiversion::multiversion;
+
+mod member;
+use member::{member_lanes, MemberLanes};
 
 use super::conic::{Conic, Projected};
 use super::detsign::unfolded_along;
@@ -71,11 +76,19 @@ pub struct LaneAnswers {
     pub v: [f32; LANES],
     /// Bit `i` set where lane `i` is unsure because both certificates refused it.
     refused: u32,
-    /// The projected conics' 12 coefficients (`F`'s, then `G`'s), per lane, where `refused` has
-    /// a lane. An `Option`, so that a call that refuses none (nearly all) writes no 384 bytes of
-    /// them: its answers are made with `None`, a tag, where the array itself cost a `memset` per
-    /// call.
-    conics: Option<[[f32; LANES]; 12]>,
+    /// What the scalar path takes on from the refused lanes, where `refused` has a lane. An
+    /// `Option`, so that a call that refuses none (nearly all) writes none of it: its answers are
+    /// made with `None`, a tag, where the arrays themselves cost a `memset` per call.
+    refused_lanes: Option<RefusedLanes>,
+}
+
+/// The refused lanes' projected conics and lean members, for the scalar path's analytic method.
+#[derive(Clone, Copy, Debug)]
+struct RefusedLanes {
+    /// The projected conics' 12 coefficients (`F`'s, then `G`'s), per lane.
+    conics: [[f32; LANES]; 12],
+    /// The lean analytic solve's members of their pencils, computed together.
+    members: MemberLanes,
 }
 
 impl LaneAnswers {
@@ -107,16 +120,16 @@ impl LaneAnswers {
     ) -> (Option<PatchHit<f32>>, TestOutcome) {
         // A ray in the patch's cone of unfolded directions (which the kernel does not test)
         // takes the scalar path whole, which certifies it by the cone.
-        let conics = self.conics.as_ref().filter(|_| self.refused >> i & 1 != 0);
-        let Some(conics) = conics.filter(|_| !unfolded_along(p, dir * p.inv_scale)) else {
+        let refused = self.refused_lanes.as_ref().filter(|_| self.refused >> i & 1 != 0);
+        let Some(refused) = refused.filter(|_| !unfolded_along(p, dir * p.inv_scale)) else {
             return intersect_in_hull_traced(p, org, dir, tmin, tmax, Method::Certified);
         };
-        let k = |j: usize| conics[j][i];
+        let k = |j: usize| refused.conics[j][i];
         let pr = Projected {
             f: Conic { k: [k(0), k(1), k(2), k(3), k(4), k(5)] },
             g: Conic { k: [k(6), k(7), k(8), k(9), k(10), k(11)] },
         };
-        dispatch::refused_dispatched(p, org, dir, tmin, tmax, &pr)
+        dispatch::refused_dispatched(p, org, dir, tmin, tmax, &pr, refused.members.get(i))
     }
 }
 
@@ -166,7 +179,7 @@ impl LaneAnswers {
             u: [0.0; LANES],
             v: [0.0; LANES],
             refused: 0,
-            conics: None,
+            refused_lanes: None,
         }
     }
 }
@@ -549,14 +562,15 @@ fn solve_lanes(p: &Patch<f32>, hull: &HullLanes, rays: &LaneRays) -> LaneAnswers
         };
     }
     (out.t, out.u, out.v) = (t.0, cu.0, cv.0);
-    // The refused lanes' conics, for the scalar path's analytic method.
+    // The refused lanes' conics and lean members, for the scalar path's analytic method.
     out.refused = lanes.refused.bits();
     if out.refused != 0 {
         let mut conics = [[0.0; LANES]; 12];
         for j in 0..6 {
             (conics[j], conics[j + 6]) = (pr.f[j].0, pr.g[j].0);
         }
-        out.conics = Some(conics);
+        let members = member_lanes(&pr.f, &pr.g, lanes.refused);
+        out.refused_lanes = Some(RefusedLanes { conics, members });
     }
     out
 }

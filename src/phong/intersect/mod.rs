@@ -30,7 +30,7 @@ pub(crate) use retry::sliver_reach;
 
 use super::patch::Patch;
 use super::real::{Real, V3};
-use analytic::{analytic_local, analytic_projected};
+use analytic::{analytic_from_member, analytic_local, analytic_projected, LeanMember};
 use certified::{certified_newton, Proofs};
 use conic::{project, Projected};
 use domain::domain_tolerance;
@@ -260,12 +260,13 @@ fn polished<T: Real>(
             return (answer, outcome);
         }
     }
-    analytic_tail(p, (org, dir), o, d, &pr, tmin, tmax)
+    analytic_tail(p, (org, dir), o, d, &pr, tmin, tmax, None)
 }
 
 /// The analytic method on the ray's conics `pr` where no certificate settled the ray (the tail
-/// of [`polished`]), with the f64 retry from the world-space ray `world`. Inlined, as
-/// [`polished`].
+/// of [`polished`]), with the f64 retry from the world-space ray `world`; from the lean
+/// solve's `member` where it is known already (the same answer). Inlined, as [`polished`].
+#[allow(clippy::too_many_arguments)] // the ray in both frames, its interval, its conics, its member
 #[inline(always)]
 fn analytic_tail<T: Real>(
     p: &Patch<T>,
@@ -275,9 +276,13 @@ fn analytic_tail<T: Real>(
     pr: &Projected<T>,
     tmin: T,
     tmax: T,
+    member: Option<LeanMember<T>>,
 ) -> (Option<PatchHit<T>>, TestOutcome) {
     let (org, dir) = world;
-    let (hit, ambiguous) = analytic_projected(p, o, d, pr, tmin, tmax, true);
+    let (hit, ambiguous) = match member {
+        Some(member) => analytic_from_member(p, o, d, pr, tmin, tmax, member),
+        None => analytic_projected(p, o, d, pr, tmin, tmax, true),
+    };
     // In f32, a miss that rested on a step within rounding (near tangency, a root at the
     // domain's edge, a sliver seen from afar), or a hit on an unconverged root at near
     // tangency, is decided again in f64 on the same f32 surface: the f32 solve stays the

@@ -105,7 +105,7 @@ pub(super) fn solve_cubic_flagged<T: Real>(c3: T, c2: T, c1: T, c0: T) -> ([T; 3
 /// Newton step, which by the AM–GM inequality (`(2e + y/e²)/3 >= y^(1/3)`) never lands below
 /// the root, widened by a few roundings.
 #[inline(always)]
-fn cbrt_upper(y: f64) -> f64 {
+pub(super) fn cbrt_upper(y: f64) -> f64 {
     // Dividing the exponent by 3: an estimate within a few percent for normal `y`.
     let e = f64::from_bits(y.to_bits() / 3 + 0x2A9F_7893_782D_A1CE);
     (e + e + y / (e * e)) * (1.0 / 3.0) * (1.0 + 1e-12)
