@@ -1,6 +1,8 @@
 //! The paper's analytic method: the pencil of the ray's two conics, its degenerate members
 //! split into lines, and the lines' intersections with a conic offered as roots.
 
+use std::ops::{Add, Mul, Sub};
+
 use super::conic::{
     adj3, det3, line_conic, project, split_degenerate, trace_prod, Conic, NoLines, Projected,
 };
@@ -502,7 +504,7 @@ fn step_from_residual<T: Real>(p: &Patch<T>, d: V3<T>, root: (T, T, T), r: V3<T>
 }
 
 /// A symmetric 3×3 matrix by its entries `[s00, s11, s22, s01, s02, s12]`.
-type Sym<T> = [T; 6];
+pub(super) type Sym<T> = [T; 6];
 
 /// The conic's matrix (see [`Conic`]).
 #[inline(always)]
@@ -512,9 +514,15 @@ fn sym_of<T: Real>(k: &Conic<T>) -> Sym<T> {
     [a, b, f, c * h, d * h, e * h]
 }
 
+/// What [`sym_adj`] and [`sym_trace_prod`] compute with: a scalar, or one per lane (the packet
+/// kernel's), with the same operations in the same order either way.
+pub(super) trait Arith: Copy + Add<Output = Self> + Sub<Output = Self> + Mul<Output = Self> {}
+
+impl<X: Copy + Add<Output = X> + Sub<Output = X> + Mul<Output = X>> Arith for X {}
+
 /// The adjugate of a symmetric matrix (symmetric too).
 #[inline(always)]
-fn sym_adj<T: Real>(m: &Sym<T>) -> Sym<T> {
+pub(super) fn sym_adj<T: Arith>(m: &Sym<T>) -> Sym<T> {
     let [m00, m11, m22, m01, m02, m12] = *m;
     [
         m11 * m22 - m12 * m12,
@@ -528,7 +536,7 @@ fn sym_adj<T: Real>(m: &Sym<T>) -> Sym<T> {
 
 /// `tr(A B)` of two symmetric matrices.
 #[inline(always)]
-fn sym_trace_prod<T: Real>(a: &Sym<T>, b: &Sym<T>) -> T {
+pub(super) fn sym_trace_prod<T: Arith>(a: &Sym<T>, b: &Sym<T>) -> T {
     let off = a[3] * b[3] + a[4] * b[4] + a[5] * b[5];
     a[0] * b[0] + a[1] * b[1] + a[2] * b[2] + off + off
 }

@@ -12,7 +12,7 @@
 use super::{select, F, LANES, M};
 #[cfg(doc)]
 use crate::phong::intersect::analytic::lean_member;
-use crate::phong::intersect::analytic::LeanMember;
+use crate::phong::intersect::analytic::{self, sym_adj, sym_trace_prod, LeanMember};
 use crate::phong::intersect::poly::cbrt_upper;
 use crate::phong::real::Real;
 
@@ -23,7 +23,7 @@ fn gamma(n: u32) -> F {
 }
 
 /// A symmetric 3×3 matrix per lane, `[s00, s11, s22, s01, s02, s12]`.
-type Sym = [F; 6];
+type Sym = analytic::Sym<F>;
 
 /// The refused lanes' members ([`member_lanes`]).
 #[derive(Clone, Copy, Debug)]
@@ -131,27 +131,6 @@ fn sym_of(k: &[F; 6]) -> Sym {
     let h = F::splat(0.5);
     let [a, b, c, d, e, f] = *k;
     [a, b, f, c * h, d * h, e * h]
-}
-
-/// `sym_adj`: the adjugate of a symmetric matrix.
-#[inline(always)]
-fn sym_adj(m: &Sym) -> Sym {
-    let [m00, m11, m22, m01, m02, m12] = *m;
-    [
-        m11 * m22 - m12 * m12,
-        m00 * m22 - m02 * m02,
-        m00 * m11 - m01 * m01,
-        m02 * m12 - m01 * m22,
-        m01 * m12 - m02 * m11,
-        m01 * m02 - m00 * m12,
-    ]
-}
-
-/// `sym_trace_prod`: `tr(A B)` of two symmetric matrices.
-#[inline(always)]
-fn sym_trace_prod(a: &Sym, b: &Sym) -> F {
-    let off = a[3] * b[3] + a[4] * b[4] + a[5] * b[5];
-    a[0] * b[0] + a[1] * b[1] + a[2] * b[2] + off + off
 }
 
 /// `line_pair_root`: the root of `det(x M + N)` whose member is most clearly a real line pair,
