@@ -24,7 +24,7 @@ done
 stages=${4:-intersect_callback,occluded_callback,intersect_packet_callback,occluded_packet_callback,\
 offer_hits,origin_in,intersect_primitive_from,intersect_lanes,prim_hit,\
 leaves_origin,leaves_patch_by,leaves_convex,leaves_unfolded,unfolded_or_bounded,\
-hull_lanes,project_lanes,proof_lanes,certified_root,solve_lanes,unsure_answer,refused_dispatched,\
+hull_lanes,project_lanes,proof_lanes,certified_root,solve_lanes,member_lanes,roots_lanes,unsure_answer,refused_dispatched,\
 to_local,hull_f32_v3,hits_hull,project,first_proof,newton_root,certified_newton,\
 line_pair_root,split_line_pair,line_conic,nearest_polished,lean,lean_member,lean_roots,analytic_from_member,full_search,decide_in_f64}
 dir=${CARGO_TARGET_DIR:-target}/stages

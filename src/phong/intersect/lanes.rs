@@ -26,7 +26,9 @@ use std::ops::{Add, BitAnd, BitOr, Div, Mul, Neg, Not, Sub};
 use multiversion::multiversion;
 
 mod member;
+mod roots;
 use member::{member_lanes, MemberLanes};
+use roots::roots_lanes;
 
 use super::conic::{Conic, Projected};
 use super::detsign::unfolded_along;
@@ -570,7 +572,25 @@ fn solve_lanes(p: &Patch<f32>, hull: &HullLanes, rays: &LaneRays) -> LaneAnswers
             (conics[j], conics[j + 6]) = (pr.f[j].0, pr.g[j].0);
         }
         let members = member_lanes(&pr.f, &pr.g, lanes.refused);
-        out.refused_lanes = Some(RefusedLanes { conics, members });
+        // Compute the lanes' roots from their members; the lanes they decide are no longer
+        // the scalar path's.
+        let mut other = pr.f;
+        for j in 0..6 {
+            other[j] = select(members.meets_g, pr.g[j], pr.f[j]);
+        }
+        let roots =
+            roots_lanes(p, o, d, (tmin, tmax), &members.lines, &other, members.near_multiple, members.found);
+        let (decided, hit) = (roots.decided.bits(), roots.hit.bits());
+        for i in 0..LANES {
+            if decided >> i & 1 != 0 {
+                out.decision[i] = if hit >> i & 1 != 0 { LaneDecision::Hit } else { LaneDecision::Miss };
+                (out.t[i], out.u[i], out.v[i]) = (roots.t.0[i], roots.u.0[i], roots.v.0[i]);
+            }
+        }
+        out.refused &= !decided;
+        if out.refused != 0 {
+            out.refused_lanes = Some(RefusedLanes { conics, members: members.stored() });
+        }
     }
     out
 }

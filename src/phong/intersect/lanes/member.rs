@@ -51,9 +51,34 @@ impl MemberLanes {
     }
 }
 
+/// The refused lanes' members as lanes ([`member_lanes`]).
+pub(super) struct Members {
+    /// The two lines' coefficients.
+    pub(super) lines: [[F; 3]; 2],
+    /// The lanes that have a member.
+    pub(super) found: M,
+    /// The lanes whose lines meet `G`.
+    pub(super) meets_g: M,
+    /// The lanes whose cubic is near a double root.
+    pub(super) near_multiple: M,
+}
+
+impl Members {
+    /// The members kept for the scalar path.
+    pub(super) fn stored(&self) -> MemberLanes {
+        let l = &self.lines;
+        MemberLanes {
+            lines: [[l[0][0].0, l[0][1].0, l[0][2].0], [l[1][0].0, l[1][1].0, l[1][2].0]],
+            found: self.found.bits(),
+            meets_g: self.meets_g.bits(),
+            near_multiple: self.near_multiple.bits(),
+        }
+    }
+}
+
 /// [`lean_member`] for the lanes `lanes` of the conics `f`, `g` (6 coefficients each, per lane).
 #[inline(always)]
-pub(super) fn member_lanes(f: &[F; 6], g: &[F; 6], lanes: M) -> MemberLanes {
+pub(super) fn member_lanes(f: &[F; 6], g: &[F; 6], lanes: M) -> Members {
     let (zero, one) = (F::splat(0.0), F::splat(1.0));
     // Compute the conics' sizes (`Conic::norm`); a flat pencil is the scalar path's.
     let (nm, nn) = (norm(f), norm(g));
@@ -68,12 +93,7 @@ pub(super) fn member_lanes(f: &[F; 6], g: &[F; 6], lanes: M) -> MemberLanes {
         h[i] = select(small, root * m[i] + n[i], m[i] + ix * n[i]);
     }
     let lines = split_line_pair(&h, &mut ok);
-    MemberLanes {
-        lines: [[lines[0][0].0, lines[0][1].0, lines[0][2].0], [lines[1][0].0, lines[1][1].0, lines[1][2].0]],
-        found: ok.bits(),
-        meets_g: (!small).bits(),
-        near_multiple: near_multiple.bits(),
-    }
+    Members { lines, found: ok, meets_g: !small, near_multiple }
 }
 
 /// The f64 constant `x` in f32, on every lane (as `T::from_f64`).
@@ -307,7 +327,7 @@ mod tests {
                     want[i] = lean_member(&pr.f, nf, &pr.g, ng).map(|(m, _)| m);
                 }
             }
-            let lanes = member_lanes(&f, &g, !M::none());
+            let lanes = member_lanes(&f, &g, !M::none()).stored();
             for (i, want) in want.iter().enumerate() {
                 let got = lanes.get(i);
                 let bits = |m: Option<LeanMember<f32>>| {
