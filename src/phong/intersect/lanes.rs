@@ -3,19 +3,20 @@
 //! prism test, the projection, the det-sign certificate and where it fails the positive-definite
 //! one, Newton in the plane and the Newton step in space) run on all lanes together, as plain
 //! loops over fixed-size arrays that the compiler vectorises: AVX2 (one register of 8 lanes) or
-//! SSE 4.1 (two of 4), chosen at run time, or the baseline target's own vectors.
+//! SSE 4.1 (two of 4), chosen at run time, or the baseline target's own vectors. Where both
+//! certificates refuse lanes, the lean analytic solve runs on them together too: the pencil's
+//! line-pair member and its lines ([`member`]), then the roots on them ([`roots`]).
 //!
 //! Each lane computes exactly what the scalar path computes, in the same order: no fused
 //! operations (Rust never contracts `a * b + c`), the same `min`/`max` (by comparison, as
 //! [`Real::max`]), the same constants, so a lane it decides has bit for bit the scalar path's
-//! answer. What it does not decide (both certificates fail, Newton does not converge, the root
-//! lies in the band where the scalar path asks f64, a certified miss on a sliver seen from afar)
-//! it leaves [`LaneDecision::Unsure`], for the scalar path through
-//! [`LaneAnswers::unsure_answer`]: the analytic method at once, from the lane's projected conics,
-//! where both certificates refused it, [`intersect_in_hull_traced`](super::intersect_in_hull_traced)
-//! (the hull passed) otherwise. For the refused lanes, the first half of the lean analytic solve
-//! (the pencil's line-pair member and its lines, [`member`]) runs here too, on all of them
-//! together, and the scalar path goes on from the member of each.
+//! answer. What it does not decide (Newton does not converge, the root lies in the band where the
+//! scalar path asks f64, a certified miss on a sliver seen from afar; of the refused lanes, those
+//! the analytic solve would not settle in the lanes' clear cases) it leaves
+//! [`LaneDecision::Unsure`], for the scalar path through [`LaneAnswers::unsure_answer`]: the
+//! analytic method at once, from the lane's projected conics and its member, where both
+//! certificates refused it, [`intersect_in_hull_traced`](super::intersect_in_hull_traced) (the
+//! hull passed) otherwise.
 
 // The lane loops index every array by the lane: the form the vectoriser turns into one
 // instruction per operation.
@@ -57,9 +58,10 @@ pub struct LaneRays {
 /// What the lane kernel decided for one lane.
 #[derive(Clone, Copy, Debug, PartialEq, Eq)]
 pub enum LaneDecision {
-    /// No hit: turned away as bad input, rejected by the hull, or a certified miss.
+    /// No hit: turned away as bad input, rejected by the hull, a certified miss, or a clear miss
+    /// of the analytic solve.
     Miss,
-    /// A certified hit, in [`LaneAnswers::hit`].
+    /// A certified hit, or one of the analytic solve, in [`LaneAnswers::hit`].
     Hit,
     /// Past the hull, not settled: the scalar path decides.
     Unsure,
