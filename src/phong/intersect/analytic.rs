@@ -514,11 +514,42 @@ fn sym_of<T: Real>(k: &Conic<T>) -> Sym<T> {
     [a, b, f, c * h, d * h, e * h]
 }
 
-/// What [`sym_adj`] and [`sym_trace_prod`] compute with: a scalar, or one per lane (the packet
-/// kernel's), with the same operations in the same order either way.
+/// What [`pencil_cubic`] and [`trace_adj_quadratic`] compute with: a scalar, or one per lane (the packet kernel's),
+/// with the same operations in the same order either way.
 pub(super) trait Arith: Copy + Add<Output = Self> + Sub<Output = Self> + Mul<Output = Self> {}
 
 impl<X: Copy + Add<Output = X> + Sub<Output = X> + Mul<Output = X>> Arith for X {}
+
+/// The pencil's cubic, from `M` and `N`: `det(x M + N) = x³ det M + x² tr(adj(M) N) + x tr(M
+/// adj(N)) + det N` as `[c3, c2, c1, c0]`, with `adj(M)` and `adj(N)` (for
+/// [`trace_adj_quadratic`]). Generic over the arithmetic, so that the scalar solve and the packet
+/// kernel's lanes compute it in one order (the same bits).
+#[inline(always)]
+pub(super) fn pencil_cubic<T: Arith>(m: &Sym<T>, n: &Sym<T>) -> ([T; 4], Sym<T>, Sym<T>) {
+    let (am, an) = (sym_adj(m), sym_adj(n));
+    let c3 = m[0] * am[0] + m[3] * am[3] + m[4] * am[4];
+    let c2 = sym_trace_prod(&am, n);
+    let c1 = sym_trace_prod(m, &an);
+    let c0 = n[0] * an[0] + n[3] * an[3] + n[4] * an[4];
+    ([c3, c2, c1, c0], am, an)
+}
+
+/// `tr adj(x M + N) = x² tr adj(M) + x t1 + tr adj(N)` as `(t2, t1, t0)`, from `M`, `N` and
+/// their adjugates `am`, `an`; generic as [`pencil_cubic`] is.
+#[inline(always)]
+pub(super) fn trace_adj_quadratic<T: Arith>(m: &Sym<T>, n: &Sym<T>, am: &Sym<T>, an: &Sym<T>) -> (T, T, T) {
+    let t2 = am[0] + am[1] + am[2];
+    let t0 = an[0] + an[1] + an[2];
+    let t1 = mixed(m, n, 0, 1, 3) + mixed(m, n, 0, 2, 4) + mixed(m, n, 1, 2, 5);
+    (t2, t1, t0)
+}
+
+/// The term of `t1` (see [`trace_adj_quadratic`]) from the entries `i`, `j` and their
+/// off-diagonal `ij`.
+#[inline(always)]
+fn mixed<T: Arith>(m: &Sym<T>, n: &Sym<T>, i: usize, j: usize, ij: usize) -> T {
+    m[i] * n[j] + n[i] * m[j] - (m[ij] * n[ij] + m[ij] * n[ij])
+}
 
 /// The adjugate of a symmetric matrix (symmetric too).
 #[inline(always)]
@@ -536,7 +567,7 @@ pub(super) fn sym_adj<T: Arith>(m: &Sym<T>) -> Sym<T> {
 
 /// `tr(A B)` of two symmetric matrices.
 #[inline(always)]
-pub(super) fn sym_trace_prod<T: Arith>(a: &Sym<T>, b: &Sym<T>) -> T {
+fn sym_trace_prod<T: Arith>(a: &Sym<T>, b: &Sym<T>) -> T {
     let off = a[3] * b[3] + a[4] * b[4] + a[5] * b[5];
     a[0] * b[0] + a[1] * b[1] + a[2] * b[2] + off + off
 }
@@ -553,12 +584,7 @@ pub(super) fn sym_trace_prod<T: Arith>(a: &Sym<T>, b: &Sym<T>) -> T {
 /// always a line pair to take, and any one carries every intersection point.
 #[inline(always)]
 fn line_pair_root<T: Real>(m: &Sym<T>, n: &Sym<T>, nm: T, nn: T) -> Option<(T, bool)> {
-    let (am, an) = (sym_adj(m), sym_adj(n));
-    // Compute det(x M + N) = x³ det M + x² tr(adj(M) N) + x tr(M adj(N)) + det N.
-    let c3 = m[0] * am[0] + m[3] * am[3] + m[4] * am[4];
-    let c2 = sym_trace_prod(&am, n);
-    let c1 = sym_trace_prod(m, &an);
-    let c0 = n[0] * an[0] + n[3] * an[3] + n[4] * an[4];
+    let ([c3, c2, c1, c0], am, an) = pencil_cubic(m, n);
     let term = nm.max(nn);
     let cubic_scale = term * term * term;
     let cn = c3.abs().max(c2.abs()).max(c1.abs()).max(c0.abs());
@@ -571,11 +597,8 @@ fn line_pair_root<T: Real>(m: &Sym<T>, n: &Sym<T>, nm: T, nn: T) -> Option<(T, b
         * T::from_f64(1.0 / 54.0);
     let near_multiple = (r * r - q * q * q).abs() <= T::gamma(256) * (r * r).max((q * q * q).abs());
     let (roots, k) = monic_cubic_roots(a, b, c)?;
-    // Compute tr adj(x M + N) = x² tr adj(M) + x t1 + tr adj(N), relative to the member's size.
-    let t2 = am[0] + am[1] + am[2];
-    let t0 = an[0] + an[1] + an[2];
-    let mixed = |i: usize, j: usize, ij: usize| m[i] * n[j] + n[i] * m[j] - (m[ij] * n[ij] + m[ij] * n[ij]);
-    let t1 = mixed(0, 1, 3) + mixed(0, 2, 4) + mixed(1, 2, 5);
+    // Score the roots by tr adj(x M + N), relative to the member's size.
+    let (t2, t1, t0) = trace_adj_quadratic(m, n, &am, &an);
     let score = |x: T| line_pair_score(x, (t2, t1, t0), nm, nn);
     let (mut best, mut best_score) = (roots[0], score(roots[0]));
     for &x in &roots[1..k] {

@@ -940,6 +940,12 @@ fn on_ray_lanes(pl: &PatchLanes, o: V, d: V, u: F, v: F, t: F) -> M {
     res.le(F::splat(<f32 as Real>::gamma(1024)) * scale)
 }
 
+/// `T::gamma(n)` of f32 on every lane.
+#[inline(always)]
+fn gamma(n: u32) -> F {
+    F::splat(<f32 as Real>::gamma(n))
+}
+
 /// `near_domain`: `(u, v)` within `margin` of the triangle.
 #[inline(always)]
 fn near(u: F, v: F, margin: f32) -> M {

@@ -9,18 +9,11 @@
 //! member clearly a line pair, a Newton root that did not settle) takes the scalar path whole,
 //! which then decides it as it would have anyway.
 
-use super::{select, F, LANES, M};
+use super::{gamma, select, F, LANES, M};
 #[cfg(doc)]
 use crate::phong::intersect::analytic::lean_member;
-use crate::phong::intersect::analytic::{self, sym_adj, sym_trace_prod, LeanMember};
+use crate::phong::intersect::analytic::{self, pencil_cubic, sym_adj, trace_adj_quadratic, LeanMember};
 use crate::phong::intersect::poly::cbrt_upper;
-use crate::phong::real::Real;
-
-/// `T::gamma(n)` of f32 on every lane.
-#[inline(always)]
-fn gamma(n: u32) -> F {
-    F::splat(<f32 as Real>::gamma(n))
-}
 
 /// A symmetric 3×3 matrix per lane, `[s00, s11, s22, s01, s02, s12]`.
 type Sym = analytic::Sym<F>;
@@ -126,12 +119,6 @@ fn cubic_at(x: F, a: F, b: F, c: F) -> (F, F) {
     (((x + a) * x + b) * x + c, (three * x + a + a) * x + b)
 }
 
-/// The mixed term of `tr adj(x M + N)` of entries `i`, `j` (off-diagonal `ij`).
-#[inline(always)]
-fn mixed(m: &Sym, n: &Sym, i: usize, j: usize, ij: usize) -> F {
-    m[i] * n[j] + n[i] * m[j] - (m[ij] * n[ij] + m[ij] * n[ij])
-}
-
 /// `line_pair_score`: `tr adj(x M + N) = x² t2 + x t1 + t0` relative to the member's size.
 #[inline(always)]
 fn line_pair_score(x: F, (t2, t1, t0): (F, F, F), nm: F, nn: F) -> F {
@@ -159,12 +146,8 @@ fn sym_of(k: &[F; 6]) -> Sym {
 fn line_pair_root(m: &Sym, n: &Sym, nm: F, nn: F, ok: &mut M) -> (F, M) {
     let c = konst;
     let (zero, three) = (c(0.0), c(3.0));
-    let (am, an) = (sym_adj(m), sym_adj(n));
     // Compute the cubic's coefficients, and leave the lanes where it drops degree.
-    let c3 = m[0] * am[0] + m[3] * am[3] + m[4] * am[4];
-    let c2 = sym_trace_prod(&am, n);
-    let c1 = sym_trace_prod(m, &an);
-    let c0 = n[0] * an[0] + n[3] * an[3] + n[4] * an[4];
+    let ([c3, c2, c1, c0], am, an) = pencil_cubic(m, n);
     let term = nm.max(nn);
     let cubic_scale = term * term * term;
     let cn = c3.abs().max(c2.abs()).max(c1.abs()).max(c0.abs());
@@ -176,10 +159,7 @@ fn line_pair_root(m: &Sym, n: &Sym, nm: F, nn: F, ok: &mut M) -> (F, M) {
     let near_multiple = (r * r - q * q * q).abs().le(gamma(256) * (r * r).max((q * q * q).abs()));
     let (x, pair, qq, c2q) = monic_cubic_roots(a, b, cc, ok);
     // Compute the scores of the roots (`line_pair_score`) and take the least.
-    let t2 = am[0] + am[1] + am[2];
-    let t0 = an[0] + an[1] + an[2];
-    let t1 = mixed(m, n, 0, 1, 3) + mixed(m, n, 0, 2, 4) + mixed(m, n, 1, 2, 5);
-    let t = (t2, t1, t0);
+    let t = trace_adj_quadratic(m, n, &am, &an);
     let (mut best, mut best_score) = (x, line_pair_score(x, t, nm, nn));
     // The quotient's roots: `0` as the second where it is `x²` (`qq = 0`), none without a pair.
     let qq_zero = qq.eq(zero);

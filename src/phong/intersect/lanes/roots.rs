@@ -10,7 +10,7 @@
 //! miss it would decide again in f64, a ray in the patch's cone of unfolded directions) is left
 //! to the scalar path, which decides it as before.
 
-use super::{clamp_lanes, near, select, PatchLanes, F, M, V};
+use super::{clamp_lanes, gamma, near, newton_step_lanes, on_ray_lanes, select, PatchLanes, F, M, V};
 use crate::phong::intersect::domain::{domain_tolerance, edge_band};
 use crate::phong::patch::Patch;
 use crate::phong::real::Real;
@@ -22,12 +22,6 @@ pub(super) struct RootLanes {
     pub(super) t: F,
     pub(super) u: F,
     pub(super) v: F,
-}
-
-/// `T::gamma(n)` of f32 on every lane.
-#[inline(always)]
-fn gamma(n: u32) -> F {
-    F::splat(<f32 as Real>::gamma(n))
 }
 
 /// The analytic method's answer from the members' `lines`, meeting the conic `other`, for the
@@ -53,7 +47,7 @@ pub(super) fn roots_lanes(
     let far = size_tol * 16.0 + edge_band::<f32>();
     let (tol2, polish_band) = (F::splat(size_tol * size_tol), edge_band::<f32>() * 4.0);
     let inv_dd = F::splat(1.0) / d.dot(d);
-    let mut slot = [(zero, zero, zero, V { x: zero, y: zero, z: zero }); 4];
+    let mut slot = [(zero, zero, zero); 4];
     let mut valid = [M::none(); 4];
     for (l, line) in lines.iter().enumerate() {
         let (pts, exists) = line_conic(*line, other, &mut ok);
@@ -64,7 +58,7 @@ pub(super) fn roots_lanes(
             let t = q.dot(d) * inv_dd;
             let r = q - d.scale(t);
             ok = ok & !(near_far & !r.dot(r).le(tol2));
-            slot[2 * l + k] = (u, v, t, r);
+            slot[2 * l + k] = (u, v, t);
             valid[2 * l + k] = near_far & near(u, v, polish_band);
         }
     }
@@ -79,7 +73,6 @@ pub(super) fn roots_lanes(
     let (mut hit, mut ambiguous, mut searching) = (M::none(), near_multiple, ok);
     let (mut ht, mut hu, mut hv) = (zero, zero, zero);
     let mut taken = [M::none(); 4];
-    let nd = V { x: -d.x, y: -d.y, z: -d.z };
     for _ in 0..4 {
         // The nearest slot not taken, per lane (the roots' `t` are distinct).
         let mut best = F::splat(f32::INFINITY);
@@ -94,32 +87,19 @@ pub(super) fn roots_lanes(
             break;
         }
         let (mut u, mut v, mut t) = (zero, zero, zero);
-        let mut r = V { x: zero, y: zero, z: zero };
         for k in 0..4 {
             let this = valid[k] & !taken[k] & slot[k].2.eq(best);
             taken[k] = taken[k] | this;
             (u, v, t) = (select(this, slot[k].0, u), select(this, slot[k].1, v), select(this, slot[k].2, t));
-            r = V {
-                x: select(this, slot[k].3.x, r.x),
-                y: select(this, slot[k].3.y, r.y),
-                z: select(this, slot[k].3.z, r.z),
-            };
         }
-        // `step_from_residual`, and the root itself where it gives no step.
-        let (pu, pv) = pl.partials(u, v);
-        let w = pv.cross(nd);
-        let det = pu.dot(w);
-        let inv = F::splat(1.0) / det;
-        let du = -r.dot(w) * inv;
-        let dv = -pu.dot(r.cross(nd)) * inv;
-        let dt = -pu.dot(pv.cross(r)) * inv;
-        let (nu, nv, nt) = (u + du, v + dv, t + dt);
-        let stepped = !det.eq(zero) & det.finite() & nu.finite() & nv.finite() & nt.finite();
+        // `step_from_residual` (the residual it is given is `newton_step`'s own: the same
+        // bits), and the root itself where it gives no step.
+        let (nu, nv, nt, stepped) = newton_step_lanes(&pl, o, d, u, v, t);
         let (pu, pv, pt) = (select(stepped, nu, u), select(stepped, nv, v), select(stepped, nt, t));
         // A polish that diverged or jumped out of the domain: a grazing ray, the scalar path's.
         let inside_after = near(pu, pv, domain_tolerance::<f32>());
         let inside_before = near(u, v, domain_tolerance::<f32>());
-        let diverged = !on_ray(&pl, o, d, pu, pv, pt) | (!inside_after & inside_before);
+        let diverged = !on_ray_lanes(&pl, o, d, pu, pv, pt) | (!inside_after & inside_before);
         ok = ok & !(searching & diverged);
         searching = searching & !diverged;
         ambiguous = ambiguous | (searching & !inside_after & near(pu, pv, edge_band::<f32>()));
@@ -137,14 +117,6 @@ pub(super) fn roots_lanes(
     let unfolded = (s * s).gt(d.dot(d));
     let decided = ok & !unfolded & (hit | (!ambiguous & !sliver));
     RootLanes { decided, hit: hit & decided, t: ht, u: hu, v: hv }
-}
-
-/// `on_ray`: the surface point at `(u, v)` lies on the ray at `t` to rounding.
-#[inline(always)]
-fn on_ray(pl: &PatchLanes, o: V, d: V, u: F, v: F, t: F) -> M {
-    let scale = F::splat(1.0) + o.max_abs() + d.scale(t).max_abs();
-    let res = (pl.eval(u, v) - o - d.scale(t)).max_abs();
-    res.le(gamma(1024) * scale)
 }
 
 /// `line_conic` on every lane, but for what the lanes leave to the scalar path (`ok` loses
