@@ -10,7 +10,9 @@
 //! miss it would decide again in f64, a ray in the patch's cone of unfolded directions) is left
 //! to the scalar path, which decides it as before.
 
-use super::{clamp_lanes, gamma, near, newton_step_lanes, on_ray_lanes, select, PatchLanes, F, M, V};
+use super::{
+    clamp_lanes, gamma, near, newton_step_lanes, on_ray_lanes, select, sliver_lanes, PatchLanes, F, M, V,
+};
 use crate::phong::intersect::domain::{domain_tolerance, edge_band};
 use crate::phong::patch::Patch;
 use crate::phong::real::Real;
@@ -112,7 +114,7 @@ pub(super) fn roots_lanes(
     // Compute what the lanes decide: hits, and misses that rest on no step within rounding and
     // that f64 would not decide again (a sliver seen from afar), off the cone of unfolded
     // directions (where the scalar path certifies instead).
-    let sliver = !o.max_abs().le(F::splat(p.sliver_reach));
+    let sliver = sliver_lanes(p, o);
     let s = d.dot(V::splat(p.unfolded));
     let unfolded = (s * s).gt(d.dot(d));
     let decided = ok & !unfolded & (hit | (!ambiguous & !sliver));
