@@ -6,7 +6,7 @@
 //! the mesh's packet route (`PhongMesh::intersect_lanes`, what the packet callbacks call)
 //! answers every lane exactly as the single-ray route does.
 use glam::{DVec3, Vec3};
-use phongrt::embree::{OriginPrim, PhongMesh, PrimHit};
+use phongrt::embree::{LaneOrigins, OriginPrim, PhongMesh, PrimHit};
 use phongrt::phong::accuracy::{generate, Category, SplitMix};
 use phongrt::phong::intersect::{certified_lanes, intersect_in_hull_traced, LaneDecision, LaneRays, LANES};
 use phongrt::phong::{intersect, intersect_traced, Method, Patch, PatchHit, TestOutcome, DEFAULT_ALPHA, V3};
@@ -183,7 +183,7 @@ fn lane_kernel_matches_the_scalar_path_on_a_million_camera_rays() {
 /// The packet route of `mesh` on `rays` against the single-ray route, lane by lane (exact,
 /// including the lanes the kernel leaves to the scalar path); returns how many lanes hit.
 fn check_mesh_route(mesh: &PhongMesh, prim: u32, rays: &LaneRays) -> usize {
-    let got = mesh.intersect_lanes(prim, rays, [true; LANES], &[None; LANES]);
+    let got = mesh.intersect_lanes(prim, rays, [true; LANES], &LaneOrigins::NONE);
     let mut hits = 0;
     for (i, got) in got.iter().enumerate() {
         let o = Vec3::new(rays.org[0][i], rays.org[1][i], rays.org[2][i]);
@@ -232,7 +232,7 @@ fn packet_route_with_origins_matches_the_single_ray_route() {
         let active = std::array::from_fn(|i| i < block.len());
         let origin = std::array::from_fn(|i| Some(at(i).1));
         for prim in 0..prims {
-            let got = mesh.intersect_lanes(prim, &rays, active, &origin);
+            let got = mesh.intersect_lanes(prim, &rays, active, &LaneOrigins::given(origin));
             for (i, &(o, from)) in block.iter().enumerate() {
                 let want =
                     mesh.intersect_primitive_from(prim, Some(from), o, light, 0.0, f32::INFINITY, |_| {});

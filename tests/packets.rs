@@ -8,8 +8,8 @@ use glam::Vec3;
 use std::sync::Arc;
 
 use phongrt::embree::{
-    CommittedScene, Device, GeometryOptions, OriginPrim, PhongMesh, PrimHit, Ray, Scene, UserPrimitives,
-    PACKET8,
+    CommittedScene, Device, GeometryOptions, LaneOrigins, OriginPrim, PhongMesh, PrimHit, Ray, Scene,
+    UserPrimitives, PACKET8,
 };
 use phongrt::phong::accuracy::SplitMix;
 use phongrt::phong::intersect::{LaneRays, LANES};
@@ -189,8 +189,9 @@ fn the_default_8_lane_test_answers_as_the_phong_mesh_lanes() {
             }
             (rays.tmin[i], rays.tmax[i]) = (1e-4, 10.0);
         }
-        let want = mesh.intersect_packet8(prim, &rays, active, &origin);
-        let got = one.intersect_packet8(prim, &rays, active, &origin);
+        let origins = LaneOrigins::given(origin);
+        let want = mesh.intersect_packet8(prim, &rays, active, &origins);
+        let got = one.intersect_packet8(prim, &rays, active, &origins);
         assert_eq!(got, want, "patch {prim}");
         for i in 0..LANES {
             if !active[i] {

@@ -16,7 +16,7 @@ pub mod user_geometry;
 #[allow(deprecated)]
 pub use user_geometry::UserGeometryOptions;
 pub use user_geometry::{
-    user_hits_out_of_range, Blocker, OriginPrim, PacketRays, PrimHit, RayOrigin, UserPrimitives,
+    user_hits_out_of_range, Blocker, LaneOrigins, OriginPrim, PacketRays, PrimHit, RayOrigin, UserPrimitives,
     UserTriangles, MAX_PACKET,
 };
 #[cfg(feature = "capi")]

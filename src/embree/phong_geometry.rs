@@ -10,7 +10,7 @@ use glam::Vec3;
 use super::device::EmbreeError;
 use super::scene::{GeometryOptions, Scene};
 use super::user_geometry::{
-    new_user_geometry, OriginPrim, PacketRays, PrimHit, UserData, UserPrimitives, MAX_PACKET,
+    new_user_geometry, LaneOrigins, OriginPrim, PacketRays, PrimHit, UserData, UserPrimitives, MAX_PACKET,
 };
 use crate::phong::intersect::{LaneRays, LANES};
 use crate::phong::mesh::PhongMesh;
@@ -76,7 +76,7 @@ impl UserPrimitives for PhongMesh {
                 tmax: field(&rays.tfar),
             };
             let origin = rays.origin[lanes.clone()].try_into().unwrap_or([None; LANES]);
-            let found = self.intersect_lanes(item, &block, active, &origin);
+            let found = self.intersect_lanes(item, &block, active, &LaneOrigins::given(origin));
             for i in 0..LANES {
                 if active[i] {
                     hits[start + i] = found[i];
@@ -93,7 +93,7 @@ impl UserPrimitives for PhongMesh {
         item: u32,
         rays: &LaneRays,
         active: [bool; LANES],
-        origin: &[Option<OriginPrim>; LANES],
+        origin: &LaneOrigins,
     ) -> [Option<PrimHit>; LANES] {
         self.intersect_lanes(item, rays, active, origin)
     }

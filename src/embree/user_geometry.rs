@@ -139,15 +139,18 @@ pub trait UserPrimitives: Send + Sync + 'static {
     /// [`UserPrimitives::intersect_packet`] for a packet of [`LANES`] (`rtcIntersect8`,
     /// `rtcOccluded8`: the renderer's packets), as the packet callbacks read it: lane `i`'s
     /// nearest hit in the answer's `[i]`, `None` for a lane not `active`. The rays' inactive
-    /// lanes are zero. The default goes through [`UserPrimitives::intersect_packet`]; an
-    /// implementation may take the lanes as they are, with the same answers.
+    /// lanes are zero. Lane `i` starts on this geometry at `origin.get(i)`, looked up when
+    /// asked (most tests need no lane's). The default goes through
+    /// [`UserPrimitives::intersect_packet`]; an implementation may take the lanes as they are,
+    /// with the same answers.
     #[inline]
+    #[allow(clippy::needless_range_loop)] // lane loops index several arrays by the lane
     fn intersect_packet8(
         &self,
         prim: u32,
         rays: &LaneRays,
         active: [bool; LANES],
-        origin: &[Option<OriginPrim>; LANES],
+        origin: &LaneOrigins,
     ) -> [Option<PrimHit>; LANES] {
         let mut p = NO_RAYS;
         p.n = LANES;
@@ -156,7 +159,10 @@ pub trait UserPrimitives: Send + Sync + 'static {
             for k in 0..3 {
                 (p.org[k][i], p.dir[k][i]) = (rays.org[k][i], rays.dir[k][i]);
             }
-            (p.tnear[i], p.tfar[i], p.origin[i]) = (rays.tmin[i], rays.tmax[i], origin[i]);
+            (p.tnear[i], p.tfar[i]) = (rays.tmin[i], rays.tmax[i]);
+            if active[i] {
+                p.origin[i] = origin.get(i);
+            }
         }
         let mut hits = [None; MAX_PACKET];
         self.intersect_packet(prim, &p, &mut hits);
@@ -207,6 +213,43 @@ impl PacketRays {
     }
 }
 
+/// Where the lanes of a packet of [`LANES`] start on this geometry, as
+/// [`UserPrimitives::intersect_packet8`] takes them: looked up lane by lane when asked, so that a
+/// test that needs no lane's origin (most: a patch's hull turns every lane away) pays for none.
+pub struct LaneOrigins {
+    lookup: Lookup,
+}
+
+/// How [`LaneOrigins`] finds a lane's origin.
+enum Lookup {
+    /// Given by the caller, lane by lane.
+    Given([Option<OriginPrim>; LANES]),
+    /// Each lane's ray names its entry of a callback's registered origins by its `id`.
+    Registered { origins: Origins, ids: [u32; LANES] },
+}
+
+impl LaneOrigins {
+    /// No lane starts on this geometry.
+    pub const NONE: LaneOrigins = LaneOrigins { lookup: Lookup::Given([None; LANES]) };
+
+    /// Lane `i` starts at `origin[i]`.
+    pub fn given(origin: [Option<OriginPrim>; LANES]) -> Self {
+        LaneOrigins { lookup: Lookup::Given(origin) }
+    }
+
+    /// Where lane `i`'s ray starts on this geometry, if known.
+    ///
+    /// # Panics
+    /// If `i >= LANES`.
+    #[inline(always)]
+    pub fn get(&self, i: usize) -> Option<OriginPrim> {
+        match &self.lookup {
+            Lookup::Given(o) => o[i],
+            Lookup::Registered { origins, ids } => origins.get(ids[i]),
+        }
+    }
+}
+
 /// Shared primitives: the scene holds one reference, the caller keeps others (for shading
 /// queries on the same data, without a copy).
 impl<T: UserPrimitives> UserPrimitives for Arc<T> {
@@ -247,7 +290,7 @@ impl<T: UserPrimitives> UserPrimitives for Arc<T> {
         prim: u32,
         rays: &LaneRays,
         active: [bool; LANES],
-        origin: &[Option<OriginPrim>; LANES],
+        origin: &LaneOrigins,
     ) -> [Option<PrimHit>; LANES] {
         (**self).intersect_packet8(prim, rays, active, origin)
     }
@@ -774,15 +817,17 @@ unsafe fn for_each_candidate<T: UserPrimitives>(
     prim: u32,
     valid: &[i32],
     ray: Soa,
-    origin: impl Fn(usize) -> Option<OriginPrim>,
+    origins: Origins,
     offer: &mut impl Offer,
 ) {
     if let Ok(valid) = <&[i32; LANES]>::try_from(valid) {
         // SAFETY: as this function's.
-        return unsafe { for_each_candidate8(data, prim, valid, ray, origin, offer) };
+        return unsafe { for_each_candidate8(data, prim, valid, ray, origins, offer) };
     }
     let mut rays = NO_RAYS;
     // SAFETY: the layout is RTCRayN of width valid.len() (this function's contract).
+    let origin = |lane: usize| origins.get(unsafe { ray.u(RAY_ID, lane) });
+    // SAFETY: as above.
     unsafe { read_packet(ray, valid, origin, &mut rays) };
     let mut hits = [None; MAX_N];
     data.intersect_packet(prim, &rays, &mut hits);
@@ -806,7 +851,7 @@ unsafe fn for_each_candidate8<T: UserPrimitives>(
     prim: u32,
     valid: &[i32; LANES],
     ray: Soa,
-    origin: impl Fn(usize) -> Option<OriginPrim>,
+    origins: Origins,
     offer: &mut impl Offer,
 ) {
     let mut active = [false; LANES];
@@ -829,12 +874,17 @@ unsafe fn for_each_candidate8<T: UserPrimitives>(
         tmin: field(RAY_TNEAR),
         tmax: field(RAY_TFAR),
     };
-    let mut origins = [None; LANES];
-    for lane in 0..LANES {
-        if active[lane] {
-            origins[lane] = origin(lane);
+    // The lanes' entries of the origins, looked up when asked (inactive lanes and rays that
+    // name none: 0).
+    let mut ids = [0u32; LANES];
+    if origins.len != 0 {
+        for lane in 0..LANES {
+            // SAFETY: lane < LANES, the width of the RTCRayN `ray` (contract).
+            let id = unsafe { ray.u(RAY_ID, lane) };
+            ids[lane] = if active[lane] { id } else { 0 };
         }
     }
+    let origins = LaneOrigins { lookup: Lookup::Registered { origins, ids } };
     let hits = data.intersect_packet8(prim, &rays, active, &origins);
     // Most calls find no hit: one test of the eight answers, without a branch per lane.
     if !hits.iter().fold(false, |any, h| any | h.is_some()) {
@@ -843,7 +893,7 @@ unsafe fn for_each_candidate8<T: UserPrimitives>(
     for lane in 0..LANES {
         let (true, Some(first)) = (active[lane], hits[lane]) else { continue };
         // SAFETY: lane < LANES (contract).
-        unsafe { offer_lane_hits(data, prim, lane, origins[lane], ray, first, offer) };
+        unsafe { offer_lane_hits(data, prim, lane, origins.get(lane), ray, first, offer) };
     }
 }
 
@@ -981,7 +1031,7 @@ unsafe fn intersect_lanes<T: UserPrimitives>(
     let mut offer = IntersectOffer { args, ray, hit, cand: Candidates::new(n) };
     // SAFETY: `ray` is the ray part of the packet Embree passed, of width n, and the offer is
     // made for it.
-    unsafe { for_each_candidate(data, a.primID, valid, ray, |_| None, &mut offer) }
+    unsafe { for_each_candidate(data, a.primID, valid, ray, Origins::NONE, &mut offer) }
 }
 
 unsafe extern "C" fn occluded_callback<T: UserPrimitives>(args: *const sys::RTCOccludedFunctionNArguments) {
@@ -1076,12 +1126,10 @@ unsafe fn occluded_lanes<T: UserPrimitives>(
     // SAFETY: `head` is registered for the running query and `a.context` is Embree's pointer to
     // its context.
     let origins = unsafe { Origins::of(head, a.context, a.geomID) };
-    // SAFETY: lane < n in an RTCRayN of width n.
-    let origin = |lane: usize| origins.get(unsafe { ray.u(RAY_ID, lane) });
     let mut offer = OccludedOffer { args, ray, cand: Candidates::new(n), blockers: Blockers::of(head) };
     // SAFETY: `ray` is the ray part of the packet Embree passed, of width n, and the offer is
     // made for it.
-    unsafe { for_each_candidate(data, a.primID, valid, ray, origin, &mut offer) }
+    unsafe { for_each_candidate(data, a.primID, valid, ray, origins, &mut offer) }
 }
 
 // ---------------------------------------------------------------------------------------------

@@ -3,15 +3,13 @@
 //! queries the ray callbacks and shading use. Pure Rust: attaching one to Embree is
 //! [`crate::embree::phong_geometry`].
 
-use std::mem::MaybeUninit;
-
 use glam::{DVec3, Vec3};
 use multiversion::multiversion;
 
-use crate::embree::user_geometry::{OriginPrim, PrimHit};
+use crate::embree::user_geometry::{LaneOrigins, OriginPrim, PrimHit};
 use crate::phong::cluster::{group_by_position, hull_entries, Cluster, ClusterHull, CLUSTER_SIZE};
 use crate::phong::convexity::{audit, convexity, leaves_patch_by, Convexity};
-use crate::phong::intersect::{certified_lanes, LaneDecision, LaneRays, LANES};
+use crate::phong::intersect::{certified_lanes_past, hull_of_lanes, LaneDecision, LaneRays, LANES};
 use crate::phong::{
     intersect_in_hull_traced, intersect_traced, Method, Patch, PatchHit, ShadingNormal, TestOutcome, V3,
 };
@@ -591,19 +589,22 @@ impl PhongMesh {
     }
 
     /// [`PhongMesh::intersect_primitive_from`] for the lanes of `rays` where `active`, lane `i`
-    /// starting at `origin[i]` when given: all of them at once (see [`certified_lanes`]) when
+    /// starting at `origin.get(i)` when given: all of them at once (see
+    /// [`certified_lanes`](crate::phong::intersect::certified_lanes)) when
     /// [`PhongMesh::tests_lanes_together`], lane by lane otherwise, with the same answers
     /// either way. Lanes the lane kernel leaves unsure are solved by the scalar path from where
     /// the kernel stopped
     /// ([`LaneAnswers::unsure_answer`](crate::phong::intersect::LaneAnswers::unsure_answer)); a
     /// lane whose origin patch [`leaves_patch`](crate::phong::convexity::leaves_patch) settles,
-    /// without its unfolded rule, is no lane of the kernel.
+    /// without its unfolded rule, is left out of the kernel after its hull test. Only the lanes
+    /// past the hull test look up their origins.
+    #[allow(clippy::needless_range_loop)] // lane loops index several arrays by the lane
     pub fn intersect_lanes(
         &self,
         item: u32,
         rays: &LaneRays,
         active: [bool; LANES],
-        origin: &[Option<OriginPrim>; LANES],
+        origin: &LaneOrigins,
     ) -> [Option<PrimHit>; LANES] {
         let mut hits = [None; LANES];
         let ray = |i: usize| {
@@ -613,57 +614,54 @@ impl PhongMesh {
         if !self.tests_lanes_together() {
             for i in (0..LANES).filter(|&i| active[i]) {
                 let (o, d) = ray(i);
-                hits[i] =
-                    self.intersect_primitive_from(item, origin[i], o, d, rays.tmin[i], rays.tmax[i], |_| {});
+                hits[i] = self.intersect_primitive_from(
+                    item,
+                    origin.get(i),
+                    o,
+                    d,
+                    rays.tmin[i],
+                    rays.tmax[i],
+                    |_| {},
+                );
             }
             return hits;
         }
         let Some(p) = self.patches.get(item as usize) else { return hits };
-        // Compute the lanes to test: active, and not settled by their origin (a zero direction
-        // turns a lane away as bad input inside the kernel).
-        let mut live = active;
+        // Compute the hull test on every lane: most calls end here, every lane turned away.
+        let Some(mut hull) = hull_of_lanes(p, rays) else { return hits };
+        // Compute the lanes to solve: active, past the hull, and not settled by their origin.
         for i in 0..LANES {
-            if !(active[i] && origin[i].is_some_and(|o| o.prim == item)) {
+            if !hull.passed(i) {
                 continue;
             }
-            let (o, d) = ray(i);
-            if self.leaves_origin::<false>(
-                item,
-                origin[i],
-                V3::from(o),
-                V3::from(d),
-                rays.tmin[i],
-                rays.tmax[i],
-            ) {
-                live[i] = false;
+            if !active[i] {
+                hull.leave_out(i);
+                continue;
+            }
+            let from = origin.get(i);
+            if from.is_some_and(|o| o.prim == item) {
+                let (o, d) = ray(i);
+                if self.leaves_origin::<false>(
+                    item,
+                    from,
+                    V3::from(o),
+                    V3::from(d),
+                    rays.tmin[i],
+                    rays.tmax[i],
+                ) {
+                    hull.leave_out(i);
+                }
             }
         }
-        // Every lane settled by its origin: no kernel run.
-        if !live.contains(&true) {
-            return hits;
-        }
-        // The lanes left out get a zero direction, in a copy made only when one of them has
-        // another (a packet callback's inactive lanes are zero already).
-        let moving = |i: usize| rays.dir[0][i] != 0.0 || rays.dir[1][i] != 0.0 || rays.dir[2][i] != 0.0;
-        let mut block = MaybeUninit::uninit();
-        let rays = if (0..LANES).any(|i| !live[i] && moving(i)) {
-            let block = block.write(*rays);
-            for i in (0..LANES).filter(|&i| !live[i]) {
-                (block.dir[0][i], block.dir[1][i], block.dir[2][i]) = (0.0, 0.0, 0.0);
-            }
-            &*block
-        } else {
-            rays
-        };
-        let answers = certified_lanes(p, rays);
-        // Most calls find every lane turned away: one comparison of the 8 decisions.
+        let answers = certified_lanes_past(p, &hull, rays);
+        // Most calls past the hull still find every lane turned away: one comparison of the 8
+        // decisions.
         if answers.decision == [LaneDecision::Miss; LANES] {
             return hits;
         }
-        // Compute the live lanes' hits (a miss leaves the lane's `None`).
+        // Compute the lanes' hits (a miss, or a lane left out, leaves the lane's `None`).
         for i in 0..LANES {
             let hit = match answers.decision[i] {
-                _ if !live[i] => continue,
                 LaneDecision::Miss => continue,
                 LaneDecision::Hit => PatchHit { t: answers.t[i], u: answers.u[i], v: answers.v[i] },
                 LaneDecision::Unsure => {

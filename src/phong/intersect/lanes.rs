@@ -139,23 +139,66 @@ impl LaneAnswers {
 
 /// [`Method::Certified`](super::Method::Certified) on every lane of `rays` against `p`, 8 lanes
 /// at once where the CPU allows: each decided lane's answer is the scalar path's, bit for bit.
+/// The kernel in one call: [`hull_of_lanes`], then [`certified_lanes_past`].
 #[inline]
 pub fn certified_lanes(p: &Patch<f32>, rays: &LaneRays) -> LaneAnswers {
-    let mut out = LaneAnswers::all(LaneDecision::Miss);
+    match hull_of_lanes(p, rays) {
+        Some(hull) => certified_lanes_past(p, &hull, rays),
+        None => LaneAnswers::all(LaneDecision::Miss),
+    }
+}
+
+/// The first half of [`certified_lanes`]: the local rays and the hull test on every lane of
+/// `rays` against `p` (bad input turned away), or `None` where no lane passes it (every lane a
+/// miss), as for most of the packets that enter a patch's box. A caller may then leave lanes
+/// out ([`LaneHull::leave_out`]) before [`certified_lanes_past`] decides the rest.
+#[inline]
+pub fn hull_of_lanes(p: &Patch<f32>, rays: &LaneRays) -> Option<LaneHull> {
     if p.degenerate {
-        return out;
+        return None;
     }
     let hull = hull_for_cpu(p, rays);
+    hull.passed.any().then_some(LaneHull(hull))
+}
+
+/// The second half of [`certified_lanes`]: the lanes of `hull` (from [`hull_of_lanes`] on the
+/// same `p` and `rays`) decided, the others misses.
+#[inline]
+pub fn certified_lanes_past(p: &Patch<f32>, hull: &LaneHull, rays: &LaneRays) -> LaneAnswers {
+    let mut out = LaneAnswers::all(LaneDecision::Miss);
     // One lane past the hull costs the scalar path less than all lanes through the stages below.
-    match hull.passed.count() {
+    match hull.0.passed.count() {
         0 => out,
         1 => {
-            for i in (0..LANES).filter(|&i| hull.passed.lane(i)) {
+            for i in (0..LANES).filter(|&i| hull.0.passed.lane(i)) {
                 out.decision[i] = LaneDecision::Unsure;
             }
             out
         }
-        _ => solve_for_cpu(p, &hull, rays),
+        _ => solve_for_cpu(p, &hull.0, rays),
+    }
+}
+
+/// The lanes past a patch's hull, from [`hull_of_lanes`].
+pub struct LaneHull(HullLanes);
+
+impl LaneHull {
+    /// Whether lane `i` passed the hull test and is not left out.
+    ///
+    /// # Panics
+    /// If `i >= LANES`.
+    #[inline(always)]
+    pub fn passed(&self, i: usize) -> bool {
+        self.0.passed.lane(i)
+    }
+
+    /// Leave lane `i` out of [`certified_lanes_past`]: its answer a miss.
+    ///
+    /// # Panics
+    /// If `i >= LANES`.
+    #[inline(always)]
+    pub fn leave_out(&mut self, i: usize) {
+        self.0.passed.0[i] = 0;
     }
 }
 

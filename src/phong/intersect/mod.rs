@@ -24,7 +24,10 @@ mod newton;
 mod poly;
 mod retry;
 
-pub use lanes::{certified_lanes, LaneAnswers, LaneDecision, LaneRays, LANES};
+pub use lanes::{
+    certified_lanes, certified_lanes_past, hull_of_lanes, LaneAnswers, LaneDecision, LaneHull, LaneRays,
+    LANES,
+};
 pub use poly::{solve_cubic, solve_quadratic};
 pub(crate) use retry::sliver_reach;
 
