@@ -628,7 +628,10 @@ impl PhongMesh {
         }
         let Some(p) = self.patches.get(item as usize) else { return hits };
         // Compute the hull test on every lane: most calls end here, every lane turned away.
-        let Some(mut hull) = hull_of_lanes(p, rays) else { return hits };
+        let mut hull = hull_of_lanes(p, rays);
+        if hull.is_empty() {
+            return hits;
+        }
         // Compute the lanes to solve: active, past the hull, and not settled by their origin.
         for i in 0..LANES {
             if !hull.passed(i) {

@@ -142,23 +142,26 @@ impl LaneAnswers {
 /// The kernel in one call: [`hull_of_lanes`], then [`certified_lanes_past`].
 #[inline]
 pub fn certified_lanes(p: &Patch<f32>, rays: &LaneRays) -> LaneAnswers {
-    match hull_of_lanes(p, rays) {
-        Some(hull) => certified_lanes_past(p, &hull, rays),
-        None => LaneAnswers::all(LaneDecision::Miss),
+    let hull = hull_of_lanes(p, rays);
+    if hull.is_empty() {
+        return LaneAnswers::all(LaneDecision::Miss);
     }
+    certified_lanes_past(p, &hull, rays)
 }
 
 /// The first half of [`certified_lanes`]: the local rays and the hull test on every lane of
-/// `rays` against `p` (bad input turned away), or `None` where no lane passes it (every lane a
-/// miss), as for most of the packets that enter a patch's box. A caller may then leave lanes
-/// out ([`LaneHull::leave_out`]) before [`certified_lanes_past`] decides the rest.
+/// `rays` against `p` (bad input turned away). Where no lane passes it
+/// ([`LaneHull::is_empty`]), every lane is a miss, as for most of the packets that enter a
+/// patch's box. A caller may leave lanes out ([`LaneHull::leave_out`]) before
+/// [`certified_lanes_past`] decides the rest.
 #[inline]
-pub fn hull_of_lanes(p: &Patch<f32>, rays: &LaneRays) -> Option<LaneHull> {
+pub fn hull_of_lanes(p: &Patch<f32>, rays: &LaneRays) -> LaneHull {
     if p.degenerate {
-        return None;
+        let zero = V::splat(V3::new(0.0, 0.0, 0.0));
+        return LaneHull(HullLanes { o: zero, d: zero, passed: M::none() });
     }
-    let hull = hull_for_cpu(p, rays);
-    hull.passed.any().then_some(LaneHull(hull))
+    // Returned as it is made (wrapped in an `Option`, it was copied by `memcpy`).
+    LaneHull(hull_for_cpu(p, rays))
 }
 
 /// The second half of [`certified_lanes`]: the lanes of `hull` (from [`hull_of_lanes`] on the
@@ -183,6 +186,12 @@ pub fn certified_lanes_past(p: &Patch<f32>, hull: &LaneHull, rays: &LaneRays) ->
 pub struct LaneHull(HullLanes);
 
 impl LaneHull {
+    /// Whether no lane passed (or every lane that did is left out).
+    #[inline(always)]
+    pub fn is_empty(&self) -> bool {
+        !self.0.passed.any()
+    }
+
     /// Whether lane `i` passed the hull test and is not left out.
     ///
     /// # Panics
