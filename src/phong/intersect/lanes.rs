@@ -723,8 +723,15 @@ fn project_lanes(p: &Patch<f32>, o: V, d: V) -> Option<(ProjLanes, M)> {
     let n2 = V { x: b, y: sign + n.y * n.y * a, z: -n.y };
     let pl = PatchLanes::new(p);
     let f0 = pl.f - o;
-    let conic = |m: V| [m.dot(pl.a), m.dot(pl.b), m.dot(pl.c), m.dot(pl.d), m.dot(pl.e), m.dot(f0)];
-    Some((ProjLanes { f: conic(n1), g: conic(n2) }, ok))
+    Some((ProjLanes { f: conic_lanes(&pl, f0, n1), g: conic_lanes(&pl, f0, n2) }, ok))
+}
+
+/// The conic of the plane with normal `m`: the patch's coefficients along `m`, its constant
+/// `f0` (the patch's less the ray's origin). A function, not a closure: a closure here was
+/// compiled outside the vector version, in baseline SSE, and called per use.
+#[inline(always)]
+fn conic_lanes(pl: &PatchLanes, f0: V, m: V) -> [F; 6] {
+    [m.dot(pl.a), m.dot(pl.b), m.dot(pl.c), m.dot(pl.d), m.dot(pl.e), m.dot(f0)]
 }
 
 /// `jacobian`: `[F_u, F_v, G_u, G_v]` at `(u, v)`.
