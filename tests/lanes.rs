@@ -8,7 +8,10 @@
 use glam::{DVec3, Vec3};
 use phongrt::embree::{LaneOrigins, OriginPrim, PhongMesh, PrimHit};
 use phongrt::phong::accuracy::{generate, Category, SplitMix};
-use phongrt::phong::intersect::{certified_lanes, intersect_in_hull_traced, LaneDecision, LaneRays, LANES};
+use phongrt::phong::intersect::{
+    certified_lanes, certified_lanes_past, hull_of_lanes, intersect_in_hull_traced, LaneDecision, LaneRays,
+    LANES,
+};
 use phongrt::phong::{intersect, intersect_traced, Method, Patch, PatchHit, TestOutcome, DEFAULT_ALPHA, V3};
 use phongrt::scene::uv_sphere;
 
@@ -243,6 +246,58 @@ fn packet_route_with_origins_matches_the_single_ray_route() {
     }
     println!("{} shadow rays, {lanes} lane tests, {hits} hits", shadow.len());
     assert!(shadow.len() > 5000 && hits > 1000, "{} rays, {hits} hits", shadow.len());
+}
+
+/// The kernel in two calls, as the packet route makes them: where the hull test turns every
+/// lane away, `certified_lanes` answers every lane a miss; otherwise a lane left out after the
+/// hull is a miss, and every other lane answers as the whole kernel does, bit for bit (the lanes
+/// do not depend on each other). Camera rays over the bench's sphere, 4x2 blocks.
+#[test]
+fn a_lane_left_out_past_the_hull_is_a_miss_and_the_others_answer_as_the_whole_kernel() {
+    let m = uv_sphere(12, 6, 1.0);
+    let mesh = PhongMesh::new(&m.positions, &m.normals, &m.indices, DEFAULT_ALPHA).unwrap();
+    let eye = Vec3::new(0.3, 0.2, 3.0);
+    let (w, h) = (160u32, 160u32);
+    let (mut empty, mut left_out) = (0usize, 0usize);
+    for by in (0..h).step_by(2) {
+        for bx in (0..w).step_by(4) {
+            let dirs: [Vec3; LANES] = std::array::from_fn(|k| {
+                let (x, y) = (bx + k as u32 % 4, by + k as u32 / 4);
+                Vec3::new((x as f32 + 0.5) / w as f32 - 0.5, 0.5 - (y as f32 + 0.5) / h as f32, -1.0) * 0.9
+            });
+            let rays = LaneRays {
+                org: std::array::from_fn(|k| [eye[k]; LANES]),
+                dir: std::array::from_fn(|k| dirs.map(|d| d[k])),
+                tmin: [0.0; LANES],
+                tmax: [f32::INFINITY; LANES],
+            };
+            for p in mesh.patches() {
+                let whole = certified_lanes(p, &rays);
+                let mut hull = hull_of_lanes(p, &rays);
+                if hull.is_empty() {
+                    assert_eq!(whole.decision, [LaneDecision::Miss; LANES]);
+                    empty += 1;
+                    continue;
+                }
+                let k = (0..LANES).find(|&i| hull.passed(i)).unwrap();
+                hull.leave_out(k);
+                assert!(!hull.passed(k));
+                let part = certified_lanes_past(p, &hull, &rays);
+                assert_eq!(part.decision[k], LaneDecision::Miss, "lane {k} left out, yet {hull:?}");
+                for i in (0..LANES).filter(|&i| i != k) {
+                    // A lane alone past the hull goes to the scalar path either way (`Unsure`),
+                    // where the whole kernel may have decided it with the others.
+                    if part.decision[i] == LaneDecision::Unsure && whole.decision[i] != LaneDecision::Unsure {
+                        continue;
+                    }
+                    assert_eq!(part.decision[i], whole.decision[i], "block ({bx}, {by}) lane {i}");
+                    assert_eq!(part.hit(i).map(|h| h.t.to_bits()), whole.hit(i).map(|h| h.t.to_bits()));
+                }
+                left_out += 1;
+            }
+        }
+    }
+    assert!(empty > 1000 && left_out > 1000, "{empty} blocks turned away, {left_out} with a lane left out");
 }
 
 /// Whether the ray `org + t dir`, `t > 0`, enters the box `[lo, hi]` (a slab test).

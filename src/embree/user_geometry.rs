@@ -250,6 +250,12 @@ impl LaneOrigins {
     }
 }
 
+impl std::fmt::Debug for LaneOrigins {
+    fn fmt(&self, f: &mut std::fmt::Formatter<'_>) -> std::fmt::Result {
+        f.debug_list().entries((0..LANES).map(|i| self.get(i))).finish()
+    }
+}
+
 /// Shared primitives: the scene holds one reference, the caller keeps others (for shading
 /// queries on the same data, without a copy).
 impl<T: UserPrimitives> UserPrimitives for Arc<T> {
@@ -825,9 +831,10 @@ unsafe fn for_each_candidate<T: UserPrimitives>(
         return unsafe { for_each_candidate8(data, prim, valid, ray, origins, offer) };
     }
     let mut rays = NO_RAYS;
-    // SAFETY: the layout is RTCRayN of width valid.len() (this function's contract).
+    // SAFETY: `read_packet` asks only for lanes below valid.len(), the width of the RTCRayN
+    // `ray` (this function's contract).
     let origin = |lane: usize| origins.get(unsafe { ray.u(RAY_ID, lane) });
-    // SAFETY: as above.
+    // SAFETY: the layout is RTCRayN of width valid.len() (this function's contract).
     unsafe { read_packet(ray, valid, origin, &mut rays) };
     let mut hits = [None; MAX_N];
     data.intersect_packet(prim, &rays, &mut hits);

@@ -185,6 +185,14 @@ pub fn certified_lanes_past(p: &Patch<f32>, hull: &LaneHull, rays: &LaneRays) ->
 /// The lanes past a patch's hull, from [`hull_of_lanes`].
 pub struct LaneHull(HullLanes);
 
+impl std::fmt::Debug for LaneHull {
+    fn fmt(&self, f: &mut std::fmt::Formatter<'_>) -> std::fmt::Result {
+        f.debug_struct("LaneHull")
+            .field("passed", &std::array::from_fn::<bool, LANES, _>(|i| self.passed(i)))
+            .finish()
+    }
+}
+
 impl LaneHull {
     /// Whether no lane passed (or every lane that did is left out).
     #[inline(always)]
