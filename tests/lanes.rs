@@ -140,17 +140,7 @@ fn lane_kernel_matches_the_scalar_path_on_a_million_camera_rays() {
     let (mut tally, mut hits) = (Tally::default(), 0usize);
     for by in (0..h).step_by(2) {
         for bx in (0..w).step_by(4) {
-            let dirs: [Vec3; LANES] = std::array::from_fn(|k| {
-                let (x, y) = (bx + k as u32 % 4, by + k as u32 / 4);
-                Vec3::new((x as f32 + 0.5) / w as f32 - 0.5, 0.5 - (y as f32 + 0.5) / h as f32, -1.0) * 0.9
-                    - Vec3::new(0.1, 0.07, 0.0)
-            });
-            let rays = LaneRays {
-                org: std::array::from_fn(|k| [eye[k]; LANES]),
-                dir: std::array::from_fn(|k| dirs.map(|d| d[k])),
-                tmin: [0.0; LANES],
-                tmax: [f32::INFINITY; LANES],
-            };
+            let (dirs, rays) = camera_block(eye, (w, h), (bx, by), Vec3::new(0.1, 0.07, 0.0));
             for (prim, b) in boxes.iter().enumerate() {
                 let Some((lo, hi)) = *b else { continue };
                 if !dirs.iter().any(|&d| enters_box(eye, d, lo, hi)) {
@@ -261,16 +251,7 @@ fn a_lane_left_out_past_the_hull_is_a_miss_and_the_others_answer_as_the_whole_ke
     let (mut empty, mut left_out) = (0usize, 0usize);
     for by in (0..h).step_by(2) {
         for bx in (0..w).step_by(4) {
-            let dirs: [Vec3; LANES] = std::array::from_fn(|k| {
-                let (x, y) = (bx + k as u32 % 4, by + k as u32 / 4);
-                Vec3::new((x as f32 + 0.5) / w as f32 - 0.5, 0.5 - (y as f32 + 0.5) / h as f32, -1.0) * 0.9
-            });
-            let rays = LaneRays {
-                org: std::array::from_fn(|k| [eye[k]; LANES]),
-                dir: std::array::from_fn(|k| dirs.map(|d| d[k])),
-                tmin: [0.0; LANES],
-                tmax: [f32::INFINITY; LANES],
-            };
+            let (_, rays) = camera_block(eye, (w, h), (bx, by), Vec3::ZERO);
             for p in mesh.patches() {
                 let whole = certified_lanes(p, &rays);
                 let mut hull = hull_of_lanes(p, &rays);
@@ -298,6 +279,28 @@ fn a_lane_left_out_past_the_hull_is_a_miss_and_the_others_answer_as_the_whole_ke
         }
     }
     assert!(empty > 1000 && left_out > 1000, "{empty} blocks turned away, {left_out} with a lane left out");
+}
+
+/// The camera rays from `eye` of the 4x2 pixel block at `(bx, by)` of a `w`x`h` image (lane `k`
+/// is pixel `(bx + k % 4, by + k / 4)`), their directions shifted by `-shift`: the directions
+/// and the lanes.
+fn camera_block(
+    eye: Vec3,
+    (w, h): (u32, u32),
+    (bx, by): (u32, u32),
+    shift: Vec3,
+) -> ([Vec3; LANES], LaneRays) {
+    let dirs: [Vec3; LANES] = std::array::from_fn(|k| {
+        let (x, y) = (bx + k as u32 % 4, by + k as u32 / 4);
+        Vec3::new((x as f32 + 0.5) / w as f32 - 0.5, 0.5 - (y as f32 + 0.5) / h as f32, -1.0) * 0.9 - shift
+    });
+    let rays = LaneRays {
+        org: std::array::from_fn(|k| [eye[k]; LANES]),
+        dir: std::array::from_fn(|k| dirs.map(|d| d[k])),
+        tmin: [0.0; LANES],
+        tmax: [f32::INFINITY; LANES],
+    };
+    (dirs, rays)
 }
 
 /// Whether the ray `org + t dir`, `t > 0`, enters the box `[lo, hi]` (a slab test).

@@ -142,11 +142,7 @@ impl LaneAnswers {
 /// The kernel in one call: [`hull_of_lanes`], then [`certified_lanes_past`].
 #[inline]
 pub fn certified_lanes(p: &Patch<f32>, rays: &LaneRays) -> LaneAnswers {
-    let hull = hull_of_lanes(p, rays);
-    if hull.is_empty() {
-        return LaneAnswers::all(LaneDecision::Miss);
-    }
-    certified_lanes_past(p, &hull, rays)
+    certified_lanes_past(p, &hull_of_lanes(p, rays), rays)
 }
 
 /// The first half of [`certified_lanes`]: the local rays and the hull test on every lane of
