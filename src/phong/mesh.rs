@@ -645,6 +645,9 @@ impl PhongMesh {
                 hull.leave_out(i);
                 continue;
             }
+            // `leaves_origin` tests the primitive too; testing it first keeps the ray's reads off
+            // the lanes that start elsewhere (without it: head shadow rays in packets 2,078 ->
+            // 2,111 instructions a ray).
             let from = origin.get(i);
             if from.is_some_and(|o| o.prim == item) {
                 let (o, d) = ray(i);
