@@ -131,10 +131,29 @@ pub(crate) fn leaves_patch_by<T: Real, const UNFOLDED: bool>(
         return false;
     }
     // A patch convex towards a side: the lean test, when the ray leaves towards that side.
-    // Otherwise the bounded test: its tangent-plane bound only where a cheap necessary
-    // condition for it holds, its curved rule (off by default) wherever that is on.
-    let curved = curved_rule::on();
+    // Otherwise the bounded test, out of line (so that this function, which nearly every call
+    // leaves from the lean test, saves no registers for it).
     match leaves_convex::<T, UNFOLDED>(p, conv, u, v, org, dir) {
+        Lean::Settled(settled) => settled,
+        lean => leaves_unsettled(p, conv, u, v, org, dir, lean),
+    }
+}
+
+/// [`leaves_patch_by`] where [`leaves_convex`] left the ray to the bounded test (`lean`, not
+/// [`Lean::Settled`]): its tangent-plane bound only where a cheap necessary condition for it
+/// holds ([`Lean::MaySettle`]), its curved rule (off by default) wherever that is on.
+#[inline(never)]
+fn leaves_unsettled<T: Real>(
+    p: &Patch<T>,
+    conv: Convexity,
+    u: f64,
+    v: f64,
+    org: V3<f32>,
+    dir: V3<f32>,
+    lean: Lean,
+) -> bool {
+    let curved = curved_rule::on();
+    match lean {
         Lean::Settled(settled) => settled,
         Lean::Bounded => curved && leaves_bounded(p, conv, u, v, org, dir, curved),
         Lean::MaySettle => leaves_bounded(p, conv, u, v, org, dir, curved),
