@@ -731,6 +731,7 @@ macro_rules! packet_queries {
         impl CommittedScene {
             #[doc = concat!("`rtcIntersect", stringify!($n), "`: lanes with `valid[i] == -1` are traced.")]
             /// A callback panic is resumed here.
+            #[inline]
             pub fn $isect(
                 &self,
                 valid: &[i32; $n],
@@ -747,6 +748,7 @@ macro_rules! packet_queries {
             }
             #[doc = concat!("`rtcOccluded", stringify!($n), "`: occluded lanes get `tfar = -inf`.")]
             /// A callback panic is resumed here.
+            #[inline]
             pub fn $occl(&self, valid: &[i32; $n], ray: &mut $ray, args: Option<&mut OccludedArgs<'_>>) {
                 let args = args.map_or(std::ptr::null_mut(), |a| &mut a.raw as *mut _);
                 let valid = aligned_valid(valid);
