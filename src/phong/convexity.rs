@@ -14,6 +14,7 @@
 
 use std::sync::atomic::{AtomicU64, AtomicU8, Ordering};
 
+use super::intersect::{LaneRays, LANES};
 use super::patch::{bilinear_bernstein, corner_partials, normal_bernstein, quadratic_range, Patch};
 use super::real::{Real, V3};
 
@@ -359,6 +360,20 @@ fn leaves_convex<T: Real, const UNFOLDED: bool>(
         _ => None,
     };
     let terms = fast.unwrap_or_else(|| convex_scalar(p, u, v, org, dir));
+    lean_of::<T, UNFOLDED>(p, conv, u, v, org, dir, terms)
+}
+
+/// [`leaves_convex`]'s answer from its terms.
+#[inline(always)]
+fn lean_of<T: Real, const UNFOLDED: bool>(
+    p: &Patch<T>,
+    conv: Convexity,
+    u: f64,
+    v: f64,
+    org: V3<f32>,
+    dir: V3<f32>,
+    terms: ConvexTerms,
+) -> Lean {
     let (h, sd, [bound, side, margin], _) = terms;
     if sd > bound * side && conv.front {
         Lean::Settled(h > bound * margin)
@@ -372,6 +387,53 @@ fn leaves_convex<T: Real, const UNFOLDED: bool>(
     } else {
         Lean::Bounded
     }
+}
+
+/// [`leaves_patch_by`] without the unfolded rule for the lanes of `rays` that `lanes` marks,
+/// rays that start on `p` at `(u[i], v[i])`, in one call: the lanes it settles, as a mask. The
+/// same answers as lane by lane (the same operations in the same order); what depends on the
+/// patch alone is computed once for all the lanes (the packet path, where a patch's origin lanes
+/// come together: about 6 a call on the sphere's shadow rays, 3 on the head's).
+#[multiversion::multiversion(targets("x86_64+avx2+fma"))]
+pub(crate) fn leaves_patch_lanes<T: Real>(
+    p: &Patch<T>,
+    conv: Convexity,
+    lanes: u32,
+    u: &[f32; LANES],
+    v: &[f32; LANES],
+    rays: &LaneRays,
+) -> u32 {
+    // Compute each lane's lean test (a lane not tested is settled as staying: `false`).
+    let mut lean = [Lean::Settled(false); LANES];
+    for i in (0..LANES).filter(|&i| lanes >> i & 1 != 0) {
+        let (u, v) = (u[i] as f64, v[i] as f64);
+        if !(u >= 0.0 && v >= 0.0 && u + v <= 1.0 && rays.tmin[i] >= 0.0) {
+            continue;
+        }
+        let org = V3::new(rays.org[0][i], rays.org[1][i], rays.org[2][i]);
+        let dir = V3::new(rays.dir[0][i], rays.dir[1][i], rays.dir[2][i]);
+        let fast = multiversion::target::match_target! {
+            "x86_64+avx2+fma" => convex_v3(p, u, v, org, dir),
+            _ => None,
+        };
+        let terms = fast.unwrap_or_else(|| convex_scalar(p, u, v, org, dir));
+        lean[i] = lean_of::<T, false>(p, conv, u, v, org, dir, terms);
+    }
+    // Compute the answers, the bounded test's out of the loop above (a call there made it keep
+    // the patch's terms in memory across every lane).
+    let mut settled = 0;
+    for (i, &lean) in lean.iter().enumerate() {
+        let leaves = match lean {
+            Lean::Settled(leaves) => leaves,
+            Lean::Bounded | Lean::MaySettle => {
+                let org = V3::new(rays.org[0][i], rays.org[1][i], rays.org[2][i]);
+                let dir = V3::new(rays.dir[0][i], rays.dir[1][i], rays.dir[2][i]);
+                leaves_unsettled(p, conv, u[i] as f64, v[i] as f64, org, dir, lean)
+            }
+        };
+        settled |= (leaves as u32) << i;
+    }
+    settled
 }
 
 /// What [`leaves_convex`] compares: the origin's height `(õ - p̃0)·m` along the computed normal
@@ -924,6 +986,67 @@ mod tests {
         if is_x86_feature_detected!("avx2") && is_x86_feature_detected!("fma") {
             assert_eq!(compared, 20_000, "the vector terms did not run");
         }
+    }
+
+    /// The origin rule for a packet's lanes together gives each lane the answer of the rule
+    /// lane by lane (without the unfolded rule, as the packet path takes it): domes, bowls,
+    /// saddles and random curved patches, 8 rays from random points lifted to either side in
+    /// random directions, a random subset of the lanes tested, some outside the triangle or
+    /// with a negative `tnear`.
+    #[test]
+    fn the_origin_rule_for_lanes_together_answers_as_lane_by_lane() {
+        let mut rng = crate::phong::accuracy::SplitMix(61);
+        let (mut settled, mut left) = (0, 0);
+        for k in 0..3000 {
+            let p = match k % 4 {
+                0 => dome(0.8),
+                1 => dome(-0.8),
+                2 => saddle(),
+                _ => {
+                    let c = crate::phong::accuracy::generate(
+                        &mut rng,
+                        crate::phong::accuracy::Category::RandomCurved,
+                    );
+                    Patch::new(c.p, c.n, c.alpha)
+                }
+            };
+            let conv = convexity(&p);
+            let mut rays = LaneRays {
+                org: [[0.0; LANES]; 3],
+                dir: [[0.0; LANES]; 3],
+                tmin: [0.0; LANES],
+                tmax: [f32::INFINITY; LANES],
+            };
+            let (mut u, mut v) = ([0.0f32; LANES], [0.0f32; LANES]);
+            let lanes = (rng.next_u64() & 0xff) as u32;
+            for i in 0..LANES {
+                (u[i], v[i]) = (rng.range(-0.05, 1.0) as f32, rng.range(-0.05, 1.0) as f32);
+                let (a, b) = if u[i] + v[i] > 1.0 { (1.0 - u[i], 1.0 - v[i]) } else { (u[i], v[i]) };
+                let ng = p.geometric_normal(a.max(0.0), b.max(0.0)).unwrap();
+                let lift = rng.range(-1e-5, 1e-3) as f32 * p.scale();
+                let org = p.eval(u[i], v[i]) + ng * lift;
+                // Most leave towards the side they start on.
+                let away = ng * if lift >= 0.0 { 1.2 } else { -1.2 };
+                let dir =
+                    V3::new(rng.range(-1.0, 1.0), rng.range(-1.0, 1.0), rng.range(-1.0, 1.0)).cast() + away;
+                for j in 0..3 {
+                    rays.org[j][i] = [org.x, org.y, org.z][j];
+                    rays.dir[j][i] = [dir.x, dir.y, dir.z][j];
+                }
+                rays.tmin[i] = if rng.range(0.0, 1.0) < 0.05 { -1.0 } else { 0.0 };
+            }
+            let together = leaves_patch_lanes(&p, conv, lanes, &u, &v, &rays);
+            for i in 0..LANES {
+                let org = V3::new(rays.org[0][i], rays.org[1][i], rays.org[2][i]);
+                let dir = V3::new(rays.dir[0][i], rays.dir[1][i], rays.dir[2][i]);
+                let one = lanes >> i & 1 != 0
+                    && leaves_patch_by::<_, false>(&p, conv, u[i], v[i], org, dir, rays.tmin[i]);
+                assert_eq!(together >> i & 1 != 0, one, "patch {k} lane {i}");
+                settled += one as usize;
+                left += (lanes >> i & 1 != 0 && !one) as usize;
+            }
+        }
+        assert!(settled > 1500 && left > 1500, "{settled} settled, {left} left");
     }
 
     /// [`convex_v3`] where this CPU has AVX2 and FMA, `None` elsewhere.

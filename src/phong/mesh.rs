@@ -8,7 +8,7 @@ use multiversion::multiversion;
 
 use crate::embree::user_geometry::{LaneOrigins, OriginPrim, PrimHit};
 use crate::phong::cluster::{group_by_position, hull_entries, Cluster, ClusterHull, CLUSTER_SIZE};
-use crate::phong::convexity::{audit, convexity, leaves_patch_by, Convexity};
+use crate::phong::convexity::{audit, convexity, leaves_patch_by, leaves_patch_lanes, Convexity};
 use crate::phong::intersect::{certified_lanes_past, hull_of_lanes, LaneDecision, LaneRays, LANES};
 use crate::phong::{
     intersect_in_hull_traced, intersect_traced, Method, Patch, PatchHit, ShadingNormal, TestOutcome, V3,
@@ -582,6 +582,31 @@ impl PhongMesh {
         true
     }
 
+    /// [`PhongMesh::leaves_origin`] without the unfolded rule for the lanes of `rays` that
+    /// `starts` marks, rays that start on patch `p` (primitive `prim`) at `(u[i], v[i])`: the
+    /// lanes it settles, as a mask; all at once ([`leaves_patch_lanes`]), with the same answers.
+    #[inline(never)]
+    fn leaves_origin_lanes(
+        &self,
+        prim: u32,
+        p: &Patch<f32>,
+        starts: u32,
+        (u, v): (&[f32; LANES], &[f32; LANES]),
+        rays: &LaneRays,
+    ) -> u32 {
+        let Some(&conv) = self.convexity.get(prim as usize) else { return 0 };
+        let settled = leaves_patch_lanes(p, conv, starts, u, v, rays);
+        if audit::on() {
+            for i in (0..LANES).filter(|&i| settled >> i & 1 != 0) {
+                let org = V3::new(rays.org[0][i], rays.org[1][i], rays.org[2][i]);
+                let dir = V3::new(rays.dir[0][i], rays.dir[1][i], rays.dir[2][i]);
+                let hit = intersect_traced(p, org, dir, rays.tmin[i], rays.tmax[i], self.method).0;
+                audit::record(prim, hit.map(|h| h.t));
+            }
+        }
+        settled
+    }
+
     /// Whether [`PhongMesh::intersect_lanes`] tests lanes together: one patch per primitive
     /// and [`Method::Certified`] (clusters and the other methods go lane by lane).
     pub fn tests_lanes_together(&self) -> bool {
@@ -636,7 +661,9 @@ impl PhongMesh {
         if hull.is_empty() {
             return hits;
         }
-        // Compute the lanes to solve: active, past the hull, and not settled by their origin.
+        // Compute the lanes to solve: active, past the hull, and not settled by their origin
+        // (the lanes that start on this patch gathered, then settled together).
+        let (mut starts, mut u, mut v) = (0u32, [0.0f32; LANES], [0.0f32; LANES]);
         for i in 0..LANES {
             if !hull.passed(i) {
                 continue;
@@ -645,22 +672,15 @@ impl PhongMesh {
                 hull.leave_out(i);
                 continue;
             }
-            // `leaves_origin` tests the primitive too; testing it first keeps the ray's reads off
-            // the lanes that start elsewhere (without it: head shadow rays in packets 2,078 ->
-            // 2,111 instructions a ray).
-            let from = origin.get(i);
-            if from.is_some_and(|o| o.prim == item) {
-                let (o, d) = ray(i);
-                if self.leaves_origin::<false>(
-                    item,
-                    from,
-                    V3::from(o),
-                    V3::from(d),
-                    rays.tmin[i],
-                    rays.tmax[i],
-                ) {
-                    hull.leave_out(i);
-                }
+            if let Some(from) = origin.get(i).filter(|o| o.prim == item) {
+                (u[i], v[i]) = (from.u, from.v);
+                starts |= 1 << i;
+            }
+        }
+        if starts != 0 {
+            let settled = self.leaves_origin_lanes(item, p, starts, (&u, &v), rays);
+            for i in (0..LANES).filter(|&i| settled >> i & 1 != 0) {
+                hull.leave_out(i);
             }
         }
         let answers = certified_lanes_past(p, &hull, rays);
