@@ -115,8 +115,8 @@ pub fn leaves_patch<T: Real>(
 
 /// [`leaves_patch`], with the unfolded rule ([`leaves_unfolded`]) tried where `UNFOLDED`. A
 /// packet's lanes are tested together, so leaving one lane out saves the kernel little: the
-/// packet path leaves the rule out (each choice is compiled on its own, so the packet path's
-/// code is as it was without the rule).
+/// packet path leaves the rule out ([`leaves_patch_lanes`], which answers as this function
+/// without it, lane by lane).
 #[inline(never)]
 pub(crate) fn leaves_patch_by<T: Real, const UNFOLDED: bool>(
     p: &Patch<T>,
@@ -391,9 +391,10 @@ fn lean_of<T: Real, const UNFOLDED: bool>(
 
 /// [`leaves_patch_by`] without the unfolded rule for the lanes of `rays` that `lanes` marks,
 /// rays that start on `p` at `(u[i], v[i])`, in one call: the lanes it settles, as a mask. The
-/// same answers as lane by lane (the same operations in the same order); what depends on the
-/// patch alone is computed once for all the lanes (the packet path, where a patch's origin lanes
-/// come together: about 6 a call on the sphere's shadow rays, 3 on the head's).
+/// same answers as lane by lane (the same operations in the same order). One call for the lanes
+/// that start on one patch (about 6 a call on the sphere's shadow rays in packets, 3 on the
+/// head's): the work that depends on the patch alone is the same for every lane, and with no
+/// call in the loop the compiler computes it once, before the loop, and keeps it in registers.
 #[multiversion::multiversion(targets("x86_64+avx2+fma"))]
 pub(crate) fn leaves_patch_lanes<T: Real>(
     p: &Patch<T>,
@@ -403,7 +404,7 @@ pub(crate) fn leaves_patch_lanes<T: Real>(
     v: &[f32; LANES],
     rays: &LaneRays,
 ) -> u32 {
-    // Compute each lane's lean test (a lane not tested is settled as staying: `false`).
+    // Compute each lane's lean test (a lane not tested is settled as not leaving: bit 0).
     let mut lean = [Lean::Settled(false); LANES];
     for i in (0..LANES).filter(|&i| lanes >> i & 1 != 0) {
         let (u, v) = (u[i] as f64, v[i] as f64);
@@ -991,12 +992,13 @@ mod tests {
     /// The origin rule for a packet's lanes together gives each lane the answer of the rule
     /// lane by lane (without the unfolded rule, as the packet path takes it): domes, bowls,
     /// saddles and random curved patches, 8 rays from random points lifted to either side in
-    /// random directions, a random subset of the lanes tested, some outside the triangle or
-    /// with a negative `tnear`.
+    /// random directions, a random subset of the lanes tested, some outside the triangle, at a
+    /// NaN `u` or with a negative `tnear`; some of them settled by the bounded test, after the
+    /// lean one.
     #[test]
     fn the_origin_rule_for_lanes_together_answers_as_lane_by_lane() {
         let mut rng = crate::phong::accuracy::SplitMix(61);
-        let (mut settled, mut left) = (0, 0);
+        let (mut settled, mut left, mut bounded) = (0, 0, 0);
         for k in 0..3000 {
             let p = match k % 4 {
                 0 => dome(0.8),
@@ -1035,18 +1037,39 @@ mod tests {
                 }
                 rays.tmin[i] = if rng.range(0.0, 1.0) < 0.05 { -1.0 } else { 0.0 };
             }
+            if k % 7 == 0 {
+                u[k % LANES] = f32::NAN;
+            }
+            // Another test here turns the curved rule on for the process: compared only where it
+            // stayed as it was for both answers.
+            let curved = curved_rule::on();
             let together = leaves_patch_lanes(&p, conv, lanes, &u, &v, &rays);
-            for i in 0..LANES {
+            let one: [bool; LANES] = std::array::from_fn(|i| {
                 let org = V3::new(rays.org[0][i], rays.org[1][i], rays.org[2][i]);
                 let dir = V3::new(rays.dir[0][i], rays.dir[1][i], rays.dir[2][i]);
-                let one = lanes >> i & 1 != 0
-                    && leaves_patch_by::<_, false>(&p, conv, u[i], v[i], org, dir, rays.tmin[i]);
-                assert_eq!(together >> i & 1 != 0, one, "patch {k} lane {i}");
-                settled += one as usize;
-                left += (lanes >> i & 1 != 0 && !one) as usize;
+                lanes >> i & 1 != 0
+                    && leaves_patch_by::<_, false>(&p, conv, u[i], v[i], org, dir, rays.tmin[i])
+            });
+            if curved_rule::on() != curved {
+                continue;
+            }
+            for i in 0..LANES {
+                assert_eq!(together >> i & 1 != 0, one[i], "patch {k} lane {i}");
+                settled += one[i] as usize;
+                left += (lanes >> i & 1 != 0 && !one[i]) as usize;
+                // Settled past the lean test: by the bounded test, after the loop.
+                let org = V3::new(rays.org[0][i], rays.org[1][i], rays.org[2][i]);
+                let dir = V3::new(rays.dir[0][i], rays.dir[1][i], rays.dir[2][i]);
+                let (a, b) = (u[i] as f64, v[i] as f64);
+                bounded += (one[i]
+                    && !matches!(leaves_convex::<_, false>(&p, conv, a, b, org, dir), Lean::Settled(_)))
+                    as usize;
             }
         }
-        assert!(settled > 1500 && left > 1500, "{settled} settled, {left} left");
+        assert!(
+            settled > 1500 && left > 1500 && bounded > 50,
+            "{settled} settled ({bounded} bounded), {left} left"
+        );
     }
 
     /// [`convex_v3`] where this CPU has AVX2 and FMA, `None` elsewhere.

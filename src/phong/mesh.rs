@@ -483,7 +483,7 @@ impl PhongMesh {
         let (o, d) = (V3::from(org), V3::from(dir));
         if self.clusters.is_empty() {
             let p = self.patches.get(item as usize)?;
-            if self.leaves_origin::<true>(item, origin, o, d, tnear, tfar) {
+            if self.leaves_origin(item, origin, o, d, tnear, tfar) {
                 return None;
             }
             // The patch the ray starts on: no hull test (the ray starts inside the hull).
@@ -540,7 +540,7 @@ impl PhongMesh {
                 break;
             }
             let Some(p) = self.patches.get(prim as usize) else { continue };
-            if self.leaves_origin::<true>(prim, origin, o, d, tnear, tmax) {
+            if self.leaves_origin(prim, origin, o, d, tnear, tmax) {
                 continue;
             }
             let (hit, outcome) = intersect_in_hull_traced(p, o, d, tnear, tmax, self.method);
@@ -556,10 +556,11 @@ impl PhongMesh {
 
     /// Whether patch `prim` is the one the ray starts on (`origin`) and
     /// [`leaves_patch`](crate::phong::convexity::leaves_patch) proves the ray cannot meet it again
-    /// (the unfolded rule tried where `UNFOLDED`). Under the [`audit`], such a patch is solved anyway (on
-    /// `(tnear, tmax)`, as the solve left out would have been) and counted.
+    /// (the single rays' route; a packet's lanes take [`PhongMesh::leaves_origin_lanes`]). Under
+    /// the [`audit`], such a patch is solved anyway (on `(tnear, tmax)`, as the solve left out
+    /// would have been) and counted.
     #[inline(always)]
-    fn leaves_origin<const UNFOLDED: bool>(
+    fn leaves_origin(
         &self,
         prim: u32,
         origin: Option<OriginPrim>,
@@ -573,7 +574,7 @@ impl PhongMesh {
         else {
             return false;
         };
-        if !leaves_patch_by::<_, UNFOLDED>(p, conv, origin.u, origin.v, org, dir, tnear) {
+        if !leaves_patch_by::<_, true>(p, conv, origin.u, origin.v, org, dir, tnear) {
             return false;
         }
         if audit::on() {

@@ -137,10 +137,10 @@ pub fn intersect<T: Real>(
     intersect_traced(p, org, dir, tmin, tmax, method).0
 }
 
-/// [`intersect`], with the path the test took (for profiling: the hit is the same). Inlined
-/// into its callers, so that the run-time choice of version ([`dispatch`]) is made in the
-/// caller's frame: out of line, this wrapper saved and restored five registers and the ray
-/// around that choice on every patch test (about 30 instructions a test).
+/// [`intersect`], with the path the test took (for profiling: the hit is the same).
+// Inlined into its callers, so that the run-time choice of version (`dispatch`) is made in the
+// caller's frame: out of line, this wrapper saved and restored five registers and the ray
+// around that choice on every patch test (about 30 instructions a test).
 #[inline(always)]
 pub fn intersect_traced<T: Real>(
     p: &Patch<T>,
