@@ -871,6 +871,12 @@ mod tests {
         assert_eq!(convexity(&saddle()), Convexity { front: false, back: false });
     }
 
+    /// A patch of the accuracy suite's random curved category.
+    fn random_curved(rng: &mut crate::phong::accuracy::SplitMix) -> Patch<f32> {
+        let c = crate::phong::accuracy::generate(rng, crate::phong::accuracy::Category::RandomCurved);
+        Patch::new(c.p, c.n, c.alpha)
+    }
+
     fn unit(rng: &mut SplitMix) -> f32 {
         (rng.next_u64() >> 40) as f32 / (1u64 << 24) as f32
     }
@@ -1004,13 +1010,7 @@ mod tests {
                 0 => dome(0.8),
                 1 => dome(-0.8),
                 2 => saddle(),
-                _ => {
-                    let c = crate::phong::accuracy::generate(
-                        &mut rng,
-                        crate::phong::accuracy::Category::RandomCurved,
-                    );
-                    Patch::new(c.p, c.n, c.alpha)
-                }
+                _ => random_curved(&mut rng),
             };
             let conv = convexity(&p);
             let mut rays = LaneRays {
@@ -1116,13 +1116,7 @@ mod tests {
                 2 => dome(0.8),
                 3 => dome(-0.8),
                 4 => saddle(),
-                _ => {
-                    let c = crate::phong::accuracy::generate(
-                        &mut rng,
-                        crate::phong::accuracy::Category::RandomCurved,
-                    );
-                    Patch::new(c.p, c.n, c.alpha)
-                }
+                _ => random_curved(&mut rng),
             };
             let (mut u, mut v) = (rng.range(0.0, 1.0), rng.range(0.0, 1.0));
             if u + v > 1.0 {
