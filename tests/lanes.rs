@@ -12,7 +12,7 @@ use phongrt::phong::intersect::{
     certified_lanes, certified_lanes_past, hull_of_lanes, intersect_in_hull_traced, LaneDecision, LaneRays,
     LANES,
 };
-use phongrt::phong::{intersect, intersect_traced, Method, Patch, PatchHit, TestOutcome, DEFAULT_ALPHA, V3};
+use phongrt::phong::{intersect, intersect_traced, Method, Patch, PatchHit, TestOutcome, DEFAULT_ALPHA};
 use phongrt::scene::uv_sphere;
 
 /// How the kernel's lanes came out.
@@ -38,15 +38,13 @@ impl Tally {
 
 /// Lane `i` of `rays` through the scalar certified path.
 fn scalar(p: &Patch<f32>, rays: &LaneRays, i: usize) -> Option<PatchHit<f32>> {
-    let o = V3::new(rays.org[0][i], rays.org[1][i], rays.org[2][i]);
-    let d = V3::new(rays.dir[0][i], rays.dir[1][i], rays.dir[2][i]);
+    let (o, d) = rays.ray(i);
     intersect(p, o, d, rays.tmin[i], rays.tmax[i], Method::Certified)
 }
 
 /// Lane `i` of `rays` through the scalar certified path: how it ended.
 fn scalar_outcome(p: &Patch<f32>, rays: &LaneRays, i: usize) -> TestOutcome {
-    let o = V3::new(rays.org[0][i], rays.org[1][i], rays.org[2][i]);
-    let d = V3::new(rays.dir[0][i], rays.dir[1][i], rays.dir[2][i]);
+    let (o, d) = rays.ray(i);
     intersect_traced(p, o, d, rays.tmin[i], rays.tmax[i], Method::Certified).1
 }
 
@@ -61,8 +59,7 @@ fn check_block(p: &Patch<f32>, rays: &LaneRays, tally: &mut Tally, what: &dyn Fn
                 // The scalar path from where the kernel stopped: the answer and outcome of the
                 // scalar path past the hull (the kernel's prism passes a superset of the scalar
                 // hull's rays, so the scalar path alone may turn a lane away there instead).
-                let o = V3::new(rays.org[0][i], rays.org[1][i], rays.org[2][i]);
-                let d = V3::new(rays.dir[0][i], rays.dir[1][i], rays.dir[2][i]);
+                let (o, d) = rays.ray(i);
                 let (lo, hi) = (rays.tmin[i], rays.tmax[i]);
                 let (h, outcome) = got.unsure_answer(p, i, o, d, lo, hi);
                 let past_hull = intersect_in_hull_traced(p, o, d, lo, hi, Method::Certified);
@@ -179,8 +176,8 @@ fn check_mesh_route(mesh: &PhongMesh, prim: u32, rays: &LaneRays) -> usize {
     let got = mesh.intersect_lanes(prim, rays, [true; LANES], &LaneOrigins::NONE);
     let mut hits = 0;
     for (i, got) in got.iter().enumerate() {
-        let o = Vec3::new(rays.org[0][i], rays.org[1][i], rays.org[2][i]);
-        let d = Vec3::new(rays.dir[0][i], rays.dir[1][i], rays.dir[2][i]);
+        let (o, d) = rays.ray(i);
+        let (o, d) = (Vec3::from(o), Vec3::from(d));
         let want: Option<PrimHit> = mesh.intersect_primitive(prim, o, d, rays.tmin[i], rays.tmax[i], |_| {});
         assert_eq!(*got, want, "patch {prim} lane {i}: packet route {got:?}, single {want:?}");
         hits += want.is_some() as usize;

@@ -411,8 +411,7 @@ pub(crate) fn leaves_patch_lanes<T: Real>(
         if !(u >= 0.0 && v >= 0.0 && u + v <= 1.0 && rays.tmin[i] >= 0.0) {
             continue;
         }
-        let org = V3::new(rays.org[0][i], rays.org[1][i], rays.org[2][i]);
-        let dir = V3::new(rays.dir[0][i], rays.dir[1][i], rays.dir[2][i]);
+        let (org, dir) = rays.ray(i);
         let fast = multiversion::target::match_target! {
             "x86_64+avx2+fma" => convex_v3(p, u, v, org, dir),
             _ => None,
@@ -427,8 +426,7 @@ pub(crate) fn leaves_patch_lanes<T: Real>(
         let leaves = match lean {
             Lean::Settled(leaves) => leaves,
             Lean::Bounded | Lean::MaySettle => {
-                let org = V3::new(rays.org[0][i], rays.org[1][i], rays.org[2][i]);
-                let dir = V3::new(rays.dir[0][i], rays.dir[1][i], rays.dir[2][i]);
+                let (org, dir) = rays.ray(i);
                 leaves_unsettled(p, conv, u[i] as f64, v[i] as f64, org, dir, lean)
             }
         };
@@ -1045,8 +1043,7 @@ mod tests {
             let curved = curved_rule::on();
             let together = leaves_patch_lanes(&p, conv, lanes, &u, &v, &rays);
             let one: [bool; LANES] = std::array::from_fn(|i| {
-                let org = V3::new(rays.org[0][i], rays.org[1][i], rays.org[2][i]);
-                let dir = V3::new(rays.dir[0][i], rays.dir[1][i], rays.dir[2][i]);
+                let (org, dir) = rays.ray(i);
                 lanes >> i & 1 != 0
                     && leaves_patch_by::<_, false>(&p, conv, u[i], v[i], org, dir, rays.tmin[i])
             });
@@ -1058,8 +1055,7 @@ mod tests {
                 settled += one[i] as usize;
                 left += (lanes >> i & 1 != 0 && !one[i]) as usize;
                 // Settled past the lean test: by the bounded test, after the loop.
-                let org = V3::new(rays.org[0][i], rays.org[1][i], rays.org[2][i]);
-                let dir = V3::new(rays.dir[0][i], rays.dir[1][i], rays.dir[2][i]);
+                let (org, dir) = rays.ray(i);
                 let (a, b) = (u[i] as f64, v[i] as f64);
                 bounded += (one[i]
                     && !matches!(leaves_convex::<_, false>(&p, conv, a, b, org, dir), Lean::Settled(_)))

@@ -599,8 +599,7 @@ impl PhongMesh {
         let settled = leaves_patch_lanes(p, conv, starts, u, v, rays);
         if audit::on() {
             for i in (0..LANES).filter(|&i| settled >> i & 1 != 0) {
-                let org = V3::new(rays.org[0][i], rays.org[1][i], rays.org[2][i]);
-                let dir = V3::new(rays.dir[0][i], rays.dir[1][i], rays.dir[2][i]);
+                let (org, dir) = rays.ray(i);
                 let hit = intersect_traced(p, org, dir, rays.tmin[i], rays.tmax[i], self.method).0;
                 audit::record(prim, hit.map(|h| h.t));
             }
@@ -637,13 +636,10 @@ impl PhongMesh {
         origin: &LaneOrigins,
     ) -> [Option<PrimHit>; LANES] {
         let mut hits = [None; LANES];
-        let ray = |i: usize| {
-            let (o, d) = (&rays.org, &rays.dir);
-            (Vec3::new(o[0][i], o[1][i], o[2][i]), Vec3::new(d[0][i], d[1][i], d[2][i]))
-        };
         if !self.tests_lanes_together() {
             for i in (0..LANES).filter(|&i| active[i]) {
-                let (o, d) = ray(i);
+                let (o, d) = rays.ray(i);
+                let (o, d) = (Vec3::from(o), Vec3::from(d));
                 hits[i] = self.intersect_primitive_from(
                     item,
                     origin.get(i),
@@ -696,9 +692,9 @@ impl PhongMesh {
                 LaneDecision::Miss => continue,
                 LaneDecision::Hit => PatchHit { t: answers.t[i], u: answers.u[i], v: answers.v[i] },
                 LaneDecision::Unsure => {
-                    let (o, d) = ray(i);
+                    let (o, d) = rays.ray(i);
                     let (lo, hi) = (rays.tmin[i], rays.tmax[i]);
-                    match answers.unsure_answer(p, i, V3::from(o), V3::from(d), lo, hi).0 {
+                    match answers.unsure_answer(p, i, o, d, lo, hi).0 {
                         Some(h) => h,
                         None => continue,
                     }

@@ -55,6 +55,18 @@ pub struct LaneRays {
     pub tmax: [f32; LANES],
 }
 
+impl LaneRays {
+    /// Lane `i`'s ray: its origin and direction.
+    ///
+    /// # Panics
+    /// If `i >= LANES`.
+    #[inline(always)]
+    pub fn ray(&self, i: usize) -> (V3<f32>, V3<f32>) {
+        let (o, d) = (&self.org, &self.dir);
+        (V3::new(o[0][i], o[1][i], o[2][i]), V3::new(d[0][i], d[1][i], d[2][i]))
+    }
+}
+
 /// What the lane kernel decided for one lane.
 #[derive(Clone, Copy, Debug, PartialEq, Eq)]
 pub enum LaneDecision {
