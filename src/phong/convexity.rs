@@ -136,28 +136,21 @@ pub(crate) fn leaves_patch_by<T: Real, const UNFOLDED: bool>(
     // leaves from the lean test, saves no registers for it).
     match leaves_convex::<T, UNFOLDED>(p, conv, u, v, org, dir) {
         Lean::Settled(settled) => settled,
-        lean => leaves_unsettled(p, conv, u, v, org, dir, lean),
+        lean => bounded_test(lean).is_some_and(|curved| leaves_bounded(p, conv, u, v, org, dir, curved)),
     }
 }
 
-/// [`leaves_patch_by`] where [`leaves_convex`] left the ray to the bounded test (`lean`, not
-/// [`Lean::Settled`]): its tangent-plane bound only where a cheap necessary condition for it
-/// holds ([`Lean::MaySettle`]), its curved rule (off by default) wherever that is on.
-#[inline(never)]
-fn leaves_unsettled<T: Real>(
-    p: &Patch<T>,
-    conv: Convexity,
-    u: f64,
-    v: f64,
-    org: V3<f32>,
-    dir: V3<f32>,
-    lean: Lean,
-) -> bool {
+/// Whether [`leaves_bounded`] is to run where [`leaves_convex`] left a ray as `lean`, and with
+/// the curved rule or not: its tangent-plane bound only where a cheap necessary condition for it
+/// holds ([`Lean::MaySettle`]), its curved rule (off by default) wherever that is on. `None`
+/// where it is not to run (the ray not settled).
+#[inline(always)]
+fn bounded_test(lean: Lean) -> Option<bool> {
     let curved = curved_rule::on();
     match lean {
-        Lean::Settled(settled) => settled,
-        Lean::Bounded => curved && leaves_bounded(p, conv, u, v, org, dir, curved),
-        Lean::MaySettle => leaves_bounded(p, conv, u, v, org, dir, curved),
+        Lean::Settled(_) => None,
+        Lean::Bounded => curved.then_some(true),
+        Lean::MaySettle => Some(curved),
     }
 }
 
@@ -425,10 +418,10 @@ pub(crate) fn leaves_patch_lanes<T: Real>(
     for (i, &lean) in lean.iter().enumerate() {
         let leaves = match lean {
             Lean::Settled(leaves) => leaves,
-            Lean::Bounded | Lean::MaySettle => {
+            Lean::Bounded | Lean::MaySettle => bounded_test(lean).is_some_and(|curved| {
                 let (org, dir) = rays.ray(i);
-                leaves_unsettled(p, conv, u[i] as f64, v[i] as f64, org, dir, lean)
-            }
+                leaves_bounded(p, conv, u[i] as f64, v[i] as f64, org, dir, curved)
+            }),
         };
         settled |= (leaves as u32) << i;
     }
