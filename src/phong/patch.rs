@@ -8,7 +8,7 @@
 //! A *straight* edge (for watertight creases) keeps `P_ij = (p_i+p_j)/2`: both patches beside a
 //! crease then share the straight edge whatever their normals.
 
-use super::intersect::sliver_reach;
+use super::intersect::{net_slack, sliver_reach};
 use super::real::{Real, V3};
 
 /// A patch, built in f64 and stored in the precision `T` of the solver that uses it.
@@ -53,6 +53,9 @@ pub struct Patch<T> {
     /// How far from the frame's centre (max norm, local frame) a ray may start before an f32
     /// miss is decided again in f64, on a sliver ([`sliver_reach`]); infinite in f64.
     pub(crate) sliver_reach: T,
+    /// The part of the control-net test's error bound that does not depend on the ray
+    /// ([`crate::phong::intersect::net_slack`]).
+    pub(crate) net_slack: T,
     /// Whether the patch has zero area or non-finite input: it is never hit.
     pub(crate) degenerate: bool,
 }
@@ -376,6 +379,7 @@ impl<T: Real> Patch<T> {
             prism_h: prism_h.map(|h| T::from_f64(prism_slack::<T>(h))),
             unfolded: if degenerate { V3::zero() } else { unfolded.cast() },
             sliver_reach: T::from_f64(sliver_reach::<T>(stored(a), stored(b), stored(d), stored(e))),
+            net_slack: T::from_f64(net_slack::<T>([a, b, c, d, e].map(stored), stored(f))),
             degenerate,
         }
     }
@@ -438,6 +442,10 @@ impl<T: Real> Patch<T> {
                 stored(self.b),
                 stored(self.d),
                 stored(self.e),
+            )),
+            net_slack: U::from_f64(net_slack::<U>(
+                [self.a, self.b, self.c, self.d, self.e].map(stored),
+                (self.f.to_f64() + shift).cast::<U>().to_f64(),
             )),
             degenerate: self.degenerate,
         }

@@ -19,6 +19,7 @@ use super::hull::hits_hull;
 use super::hull::hits_hull_v3;
 #[cfg(test)]
 use super::intersect_with;
+use super::net::misses_net;
 use super::{analytic_tail, solve_local, to_local, Method, PatchHit, TestOutcome};
 use crate::phong::patch::Patch;
 use crate::phong::real::{Real, V3};
@@ -79,8 +80,8 @@ pub(super) fn intersect_dispatched<T: Real>(
 /// The certified method's answer for a ray both its certificates refused, from the ray's
 /// projected conics `pr` (as [`super::conic::project`] gives them for the local ray) and, where
 /// known, the lean solve's `member` of their pencil (as [`lean_member`](super::analytic::lean_member)
-/// gives it): the analytic method and its f64 retry, in the version this CPU runs best (as
-/// [`intersect_dispatched`]). The same answer as [`intersect_dispatched`] with
+/// gives it): the control-net test, then the analytic method and its f64 retry, in the version
+/// this CPU runs best (as [`intersect_dispatched`]). The same answer as [`intersect_dispatched`] with
 /// [`Method::Certified`] gives such a ray, bit for bit.
 #[multiversion(targets("x86_64+avx2+fma"))]
 pub(super) fn refused_dispatched<T: Real>(
@@ -93,6 +94,10 @@ pub(super) fn refused_dispatched<T: Real>(
     member: Option<LeanMember<T>>,
 ) -> (Option<PatchHit<T>>, TestOutcome) {
     let (o, d) = to_local(p, org, dir);
+    // The scalar path's first test past the hull, so that the lanes answer as it does.
+    if misses_net(p, o, pr) {
+        return (None, TestOutcome::NetMiss);
+    }
     analytic_tail(p, (org, dir), o, d, pr, tmin, tmax, member)
 }
 

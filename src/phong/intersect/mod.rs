@@ -6,9 +6,10 @@
 //! planes, the projected conics, splitting a degenerate conic, line–conic), `hull` (the bounds and
 //! prism rejection), `analytic` (enumerate the pencil's degenerate members, split them into lines,
 //! offer the roots), `certified` (the one-to-one certificates and Newton in the plane), `detsign`
-//! (the certificate that `det J` keeps one sign), `lanes` (the certified method on 8 rays at once),
-//! `newton` (Newton in space), `domain` (the triangle's tolerances, the clamp and the on-the-ray
-//! test) and `retry` (the f64 retry). [`intersect`] below dispatches between them, compiled twice
+//! (the certificate that `det J` keeps one sign), `net` (a miss proven from the control net seen
+//! along the ray), `lanes` (the certified method on 8 rays at once), `newton` (Newton in space),
+//! `domain` (the triangle's tolerances, the clamp and the on-the-ray test) and `retry` (the f64
+//! retry). [`intersect`] below dispatches between them, compiled twice
 //! by `dispatch`: for baseline x86-64 and for x86-64-v3 (AVX2 and FMA), the one the CPU runs
 //! chosen at run time.
 
@@ -20,6 +21,7 @@ mod dispatch;
 mod domain;
 mod hull;
 mod lanes;
+mod net;
 mod newton;
 mod poly;
 mod retry;
@@ -28,6 +30,7 @@ pub use lanes::{
     certified_lanes, certified_lanes_past, hull_of_lanes, LaneAnswers, LaneDecision, LaneHull, LaneRays,
     LANES,
 };
+pub(crate) use net::net_slack;
 pub use poly::{solve_cubic, solve_quadratic};
 pub(crate) use retry::sliver_reach;
 
@@ -39,6 +42,7 @@ use conic::{project, Projected};
 use domain::domain_tolerance;
 #[cfg(test)]
 use hull::hits_hull;
+use net::misses_net;
 use newton::newton_local;
 use retry::{decide_in_f64, sliver_from_afar};
 
@@ -80,6 +84,9 @@ pub enum TestOutcome {
     BadInput,
     /// Rejected by the patch's local bounds or its prism (the cheap hull test).
     HullReject,
+    /// A miss proven from the patch's control net seen along the ray, before any solve (the
+    /// certified methods).
+    NetMiss,
     /// The certified Newton step proved a hit.
     CertifiedHit,
     /// The certified Newton step proved a miss.
@@ -97,9 +104,10 @@ pub enum TestOutcome {
 
 impl TestOutcome {
     /// Every outcome, in the order of the profile's columns.
-    pub const ALL: [TestOutcome; 8] = [
+    pub const ALL: [TestOutcome; 9] = [
         TestOutcome::BadInput,
         TestOutcome::HullReject,
+        TestOutcome::NetMiss,
         TestOutcome::CertifiedHit,
         TestOutcome::CertifiedMiss,
         TestOutcome::AnalyticHit,
@@ -113,6 +121,7 @@ impl TestOutcome {
         match self {
             TestOutcome::BadInput => "bad input",
             TestOutcome::HullReject => "hull reject",
+            TestOutcome::NetMiss => "net miss",
             TestOutcome::CertifiedHit => "certified hit",
             TestOutcome::CertifiedMiss => "certified miss",
             TestOutcome::AnalyticHit => "analytic hit",
@@ -264,6 +273,11 @@ fn polished<T: Real>(
             let outcome =
                 if answer.is_some() { TestOutcome::CertifiedHit } else { TestOutcome::CertifiedMiss };
             return (answer, outcome);
+        }
+        // Compute the control-net test before the analytic method: it settles about half the
+        // misses that both certificates refuse.
+        if misses_net(p, o, &pr) {
+            return (None, TestOutcome::NetMiss);
         }
     }
     analytic_tail(p, (org, dir), o, d, &pr, tmin, tmax, None)
