@@ -31,7 +31,7 @@ count() {
     echo "$n $ir"
 }
 
-outcomes="hull-reject certified-hit certified-miss analytic-hit analytic-miss f64-retry bad-input"
+outcomes="hull-reject net-miss certified-hit certified-miss analytic-hit analytic-miss f64-retry bad-input"
 for scene in "$@"; do
     echo "## $scene"
     echo
