@@ -10,7 +10,7 @@
 //! certified Newton or the analytic method.
 
 use super::conic::{Conic, Projected};
-use super::domain::edge_band;
+use super::domain::domain_tolerance;
 use crate::phong::patch::Patch;
 use crate::phong::real::{Real, V3};
 
@@ -27,10 +27,12 @@ use crate::phong::real::{Real, V3};
 /// is the most clockwise point (one pass, each point against the best so far: where the points
 /// fit in a half-plane, that is the one), then every cross product is checked. Each must exceed
 /// its rounding (`γ(3)` of its terms) and the effect of moving each point by up to `e` in either
-/// coordinate, where `e` bounds the points' own error and widens the domain by the edge band, in
-/// which a root's side of the edge is left to the solve (and to f64): `e` is the patch's
-/// [`net_slack`] and `γ(32) 3 |o|∞` for the ray's origin. So a ray the solve would find within
-/// the band is never turned away here.
+/// coordinate, where `e` bounds the points' own error and widens the domain by four domain
+/// tolerances ([`domain_tolerance`]): `e` is the patch's [`net_slack`] and `γ(32) 3 |o|∞` for
+/// the ray's origin. The solve accepts a root up to one tolerance outside the domain; so an
+/// answer this test changes can only be a hit at a root more than three tolerances outside, a
+/// false hit of the f32 solve (a grazing ray), and no ray whose line meets the patch is turned
+/// away.
 #[inline(always)]
 pub(super) fn misses_net<T: Real>(p: &Patch<T>, o: V3<T>, pr: &Projected<T>) -> bool {
     // Compute the control points seen along the ray (corners first), and the corners' triangle:
@@ -77,7 +79,8 @@ fn control_values<T: Real>(k: &Conic<T>) -> [T; 6] {
 /// The part of [`misses_net`]'s bound `e` on each control value's error that does not depend
 /// on the ray, for a patch with coefficients `coef` (`A` to `E`) and `f` (`F`) as stored in
 /// precision `T`: the distance of the computed value from the exact control value of the exact
-/// ray on the domain widened by the edge band ([`edge_band`]), in either coordinate.
+/// ray on the domain widened by four domain tolerances ([`domain_tolerance`]; see
+/// [`misses_net`]), in either coordinate.
 /// - The domain widened by `δ` (`u, v >= -δ`, `u + v <= 1 + δ`, as [`super::domain::near_domain`]):
 ///   each of its points is within `2δ` of the domain in `u` and in `v`, so the map moves by at
 ///   most `2δ (|F_u| + |F_v|)`, and there `|F_u| + |F_v| <= 8 (1 + 2δ) max |k|` over the conic's
@@ -91,7 +94,7 @@ fn control_values<T: Real>(k: &Conic<T>) -> [T; 6] {
 ///   per ray.
 pub(crate) fn net_slack<T: Real>(coef: [V3<f64>; 5], f: V3<f64>) -> f64 {
     let largest = coef.iter().fold(0.0f64, |m, x| m.max(x.max_abs()));
-    let delta = edge_band::<T>().to_f64();
+    let delta = 4.0 * domain_tolerance::<T>().to_f64();
     let widened = 16.0 * delta * (1.0 + 2.0 * delta) * 3f64.sqrt() * largest;
     let s = coef.iter().map(|x| x.max_abs()).sum::<f64>() + f.max_abs();
     // Rounded up: the sum above and its conversion to `T` may round down.
