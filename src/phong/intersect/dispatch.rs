@@ -94,7 +94,8 @@ pub(super) fn refused_dispatched<T: Real>(
     member: Option<LeanMember<T>>,
 ) -> (Option<PatchHit<T>>, TestOutcome) {
     let (o, d) = to_local(p, org, dir);
-    // The scalar path's first test past the hull, so that the lanes answer as it does.
+    // The scalar path's first test after both certificates refuse, so that the lanes answer
+    // as it does.
     if misses_net(p, o, pr) {
         return (None, TestOutcome::NetMiss);
     }

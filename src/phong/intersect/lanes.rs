@@ -34,6 +34,7 @@ use roots::roots_lanes;
 use super::conic::{Conic, Projected};
 use super::detsign::unfolded_along;
 use super::domain::{domain_tolerance, edge_band};
+use super::net::misses_net;
 use super::{dispatch, intersect_in_hull_traced, Method, PatchHit, TestOutcome};
 use crate::phong::patch::Patch;
 use crate::phong::real::{Real, V3};
@@ -653,7 +654,18 @@ fn solve_lanes(p: &Patch<f32>, hull: &HullLanes, rays: &LaneRays) -> LaneAnswers
         let (decided, hit) = (roots.decided.bits(), roots.hit.bits());
         for i in 0..LANES {
             if decided >> i & 1 != 0 {
-                out.decision[i] = if hit >> i & 1 != 0 { LaneDecision::Hit } else { LaneDecision::Miss };
+                // The scalar path asks the control-net test before the analytic method: a hit
+                // it turns away (a false hit of the f32 solve) is its miss here too.
+                let net = || {
+                    let k = |j: usize| conics[j][i];
+                    let pr = Projected {
+                        f: Conic { k: [k(0), k(1), k(2), k(3), k(4), k(5)] },
+                        g: Conic { k: [k(6), k(7), k(8), k(9), k(10), k(11)] },
+                    };
+                    misses_net(p, V3::new(o.x.0[i], o.y.0[i], o.z.0[i]), &pr)
+                };
+                out.decision[i] =
+                    if hit >> i & 1 != 0 && !net() { LaneDecision::Hit } else { LaneDecision::Miss };
                 (out.t[i], out.u[i], out.v[i]) = (roots.t.0[i], roots.u.0[i], roots.v.0[i]);
             }
         }

@@ -70,7 +70,9 @@ pub enum Method {
     /// the triangle (so a converged root is *the* answer), the polished analytic method
     /// elsewhere: as exact as `AnalyticPolished`, faster on most rays (the render path). The
     /// certificate is the positive-definite one, and where it fails the det-sign one (`det J`
-    /// keeps one sign on the region).
+    /// keeps one sign on the region). Where both fail, a miss may still be proven from the
+    /// patch's control net seen along the ray ([`TestOutcome::NetMiss`]) before the analytic
+    /// method runs.
     Certified,
     /// [`Method::Certified`] with the positive-definite certificate alone, as before the det-sign
     /// certificate: the same answers, more of them from the analytic method (for comparison).
