@@ -114,6 +114,7 @@ pub(crate) fn net_slack<T: Real>(coef: [V3<f64>; 5], f: V3<f64>) -> f64 {
 #[cfg(test)]
 mod tests {
     use super::super::conic::project;
+    use super::super::domain::domain_tolerance;
     use super::*;
     use crate::phong::accuracy::{generate, Category, SplitMix};
     use crate::phong::reference::reference_intersect;
@@ -171,5 +172,44 @@ mod tests {
         }
         assert!(misses > 5_000 && settled * 4 > misses, "{settled} of {misses} misses settled");
         println!("{settled} of {misses} misses settled");
+    }
+
+    /// Lines through points of the stored f32 patch up to four domain tolerances outside the
+    /// domain (past an edge, the widening the test promises) are never turned away:
+    /// the point computed in f64 from the f32 coefficients, the ray's origin rounded to f32 a
+    /// random distance back along a random direction.
+    #[test]
+    fn lines_through_the_widened_domain_are_not_turned_away() {
+        let mut rng = SplitMix(93);
+        let tol = domain_tolerance::<f32>() as f64;
+        let mut tried = 0;
+        for i in 0..50_000 {
+            // Flat patches half the time: there the hull is the triangle, and the widening is
+            // what keeps these lines (it is nearly all of the slack).
+            let category =
+                if i % 2 == 0 { Category::AlphaZero } else { Category::ALL[i / 2 % Category::ALL.len()] };
+            let c = generate(&mut rng, category);
+            let p: Patch<f32> = Patch::new(c.p, c.n, c.alpha);
+            if p.degenerate {
+                continue;
+            }
+            // Compute a point of the widened domain near its boundary.
+            let out = rng.range(0.0, 4.0) * tol;
+            let t = rng.range(0.0, 1.0);
+            let (u, v) = match i % 3 {
+                0 => (t, -out),
+                1 => (-out, t),
+                _ => (t + 0.5 * out, 1.0 - t + 0.5 * out),
+            };
+            let k = |x: V3<f32>| x.to_f64();
+            let x = k(p.a) * (u * u) + k(p.b) * (v * v) + k(p.c) * (u * v) + k(p.d) * u + k(p.e) * v + k(p.f);
+            let d = V3::new(rng.range(-1.0, 1.0), rng.range(-1.0, 1.0), rng.range(-1.0, 1.0));
+            let o = (x - d * rng.range(0.5, 20.0)).cast::<f32>();
+            let d = d.cast::<f32>();
+            let Some(pr) = project(&p, o, d) else { continue };
+            tried += 1;
+            assert!(!misses_net(&p, o, &pr), "case {i}: ({u}, {v}) turned away: {c:?}");
+        }
+        assert!(tried > 45_000, "{tried} rays");
     }
 }
