@@ -339,6 +339,19 @@ fn edge_max(q0: f64, q1: f64, qe: f64) -> f64 {
 /// So `(õ - p̃0)·m > 1e-12 M² (M + S + |g|)` (over 40 times the sum of the bounds) proves the
 /// origin above the plane by more than the patch reaches, and `dir·m > 1e-12 M² |dir|` that the
 /// ray never comes closer to it (`t >= tnear >= 0`; `dl` is `dir` times the positive scale).
+/// [`ConvexTerms`] in explicit vectors where the calling version has AVX2 and FMA
+/// ([`convex_v3`]), in scalar f64 otherwise: a macro, so that `match_target!` expands inside
+/// each version of its multiversioned caller ([`leaves_convex`], [`leaves_patch_lanes`]).
+macro_rules! convex_terms {
+    ($p:expr, $u:expr, $v:expr, $org:expr, $dir:expr) => {{
+        let fast = multiversion::target::match_target! {
+            "x86_64+avx2+fma" => convex_v3($p, $u, $v, $org, $dir),
+            _ => None,
+        };
+        fast.unwrap_or_else(|| convex_scalar($p, $u, $v, $org, $dir))
+    }};
+}
+
 #[multiversion::multiversion(targets("x86_64+avx2+fma"))]
 fn leaves_convex<T: Real, const UNFOLDED: bool>(
     p: &Patch<T>,
@@ -348,11 +361,7 @@ fn leaves_convex<T: Real, const UNFOLDED: bool>(
     org: V3<f32>,
     dir: V3<f32>,
 ) -> Lean {
-    let fast = multiversion::target::match_target! {
-        "x86_64+avx2+fma" => convex_v3(p, u, v, org, dir),
-        _ => None,
-    };
-    let terms = fast.unwrap_or_else(|| convex_scalar(p, u, v, org, dir));
+    let terms = convex_terms!(p, u, v, org, dir);
     lean_of::<T, UNFOLDED>(p, conv, u, v, org, dir, terms)
 }
 
@@ -405,12 +414,7 @@ pub(crate) fn leaves_patch_lanes<T: Real>(
             continue;
         }
         let (org, dir) = rays.ray(i);
-        let fast = multiversion::target::match_target! {
-            "x86_64+avx2+fma" => convex_v3(p, u, v, org, dir),
-            _ => None,
-        };
-        let terms = fast.unwrap_or_else(|| convex_scalar(p, u, v, org, dir));
-        lean[i] = lean_of::<T, false>(p, conv, u, v, org, dir, terms);
+        lean[i] = lean_of::<T, false>(p, conv, u, v, org, dir, convex_terms!(p, u, v, org, dir));
     }
     // Compute the answers, the bounded test's out of the loop above (a call there made it keep
     // the patch's terms in memory across every lane).
