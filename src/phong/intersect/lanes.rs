@@ -108,6 +108,16 @@ struct RefusedLanes {
     members: MemberLanes,
 }
 
+/// Lane `i`'s projected conics from their 12 coefficients per lane (`F`'s, then `G`'s).
+#[inline(always)]
+fn lane_conics(conics: &[[f32; LANES]; 12], i: usize) -> Projected<f32> {
+    let k = |j: usize| conics[j][i];
+    Projected {
+        f: Conic { k: [k(0), k(1), k(2), k(3), k(4), k(5)] },
+        g: Conic { k: [k(6), k(7), k(8), k(9), k(10), k(11)] },
+    }
+}
+
 impl LaneAnswers {
     /// Lane `i`'s hit, where [`LaneAnswers::decision`] says [`LaneDecision::Hit`].
     pub fn hit(&self, i: usize) -> Option<PatchHit<f32>> {
@@ -141,11 +151,7 @@ impl LaneAnswers {
         let Some(refused) = refused.filter(|_| !unfolded_along(p, dir * p.inv_scale)) else {
             return intersect_in_hull_traced(p, org, dir, tmin, tmax, Method::Certified);
         };
-        let k = |j: usize| refused.conics[j][i];
-        let pr = Projected {
-            f: Conic { k: [k(0), k(1), k(2), k(3), k(4), k(5)] },
-            g: Conic { k: [k(6), k(7), k(8), k(9), k(10), k(11)] },
-        };
+        let pr = lane_conics(&refused.conics, i);
         dispatch::refused_dispatched(p, org, dir, tmin, tmax, &pr, refused.members.get(i))
     }
 }
@@ -656,14 +662,7 @@ fn solve_lanes(p: &Patch<f32>, hull: &HullLanes, rays: &LaneRays) -> LaneAnswers
             if decided >> i & 1 != 0 {
                 // The scalar path asks the control-net test before the analytic method: a hit
                 // it turns away (a false hit of the f32 solve) is its miss here too.
-                let net = || {
-                    let k = |j: usize| conics[j][i];
-                    let pr = Projected {
-                        f: Conic { k: [k(0), k(1), k(2), k(3), k(4), k(5)] },
-                        g: Conic { k: [k(6), k(7), k(8), k(9), k(10), k(11)] },
-                    };
-                    misses_net(p, V3::new(o.x.0[i], o.y.0[i], o.z.0[i]), &pr)
-                };
+                let net = || misses_net(p, V3::new(o.x.0[i], o.y.0[i], o.z.0[i]), &lane_conics(&conics, i));
                 out.decision[i] =
                     if hit >> i & 1 != 0 && !net() { LaneDecision::Hit } else { LaneDecision::Miss };
                 (out.t[i], out.u[i], out.v[i]) = (roots.t.0[i], roots.u.0[i], roots.v.0[i]);
