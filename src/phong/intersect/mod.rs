@@ -86,8 +86,8 @@ pub enum TestOutcome {
     BadInput,
     /// Rejected by the patch's local bounds or its prism (the cheap hull test).
     HullReject,
-    /// A miss proven from the patch's control net seen along the ray, before any solve (the
-    /// certified methods).
+    /// A miss proven from the patch's control net seen along the ray, where both certificates
+    /// refused the ray, before the analytic method (the certified methods).
     NetMiss,
     /// The certified Newton step proved a hit.
     CertifiedHit,
@@ -276,8 +276,8 @@ fn polished<T: Real>(
                 if answer.is_some() { TestOutcome::CertifiedHit } else { TestOutcome::CertifiedMiss };
             return (answer, outcome);
         }
-        // Compute the control-net test before the analytic method: it settles about half the
-        // misses that both certificates refuse.
+        // Compute the control-net test before the analytic method: it settles a third to a half
+        // of the misses that both certificates refuse.
         if misses_net(p, o, &pr) {
             return (None, TestOutcome::NetMiss);
         }
