@@ -970,14 +970,17 @@ fn flat_start_lanes(pr: &ProjLanes, lanes: &mut Lanes) -> (F, F) {
     ((l01 * gf - l11 * ff) * idet, (l10 * ff - l00 * gf) * idet)
 }
 
-/// `newton_plane` on the live lanes: the last iterates and where they converged. A singular
-/// Jacobian or a non-finite step hands the lane to the scalar path.
+/// `newton_plane` on the live lanes: the last iterates and where they converged (its bound on
+/// the next step, in its operations). A singular Jacobian or a non-finite step hands the lane to
+/// the scalar path.
 #[inline(always)]
 fn newton_plane_lanes(pr: &ProjLanes, mut u: F, mut v: F, lanes: &mut Lanes) -> (F, F, M) {
     let ([fa, fb, fc, fd, fe, ff], [ga, gb, gc, gd, ge, gf]) = (pr.f, pr.g);
     let mut run = lanes.live;
     let mut converged = M::none();
     let tol = F::splat(<f32 as Real>::gamma(64));
+    let near = F::splat(<f32 as Real>::gamma(64).sqrt());
+    let q = (fa.abs() + fb.abs() + fc.abs()).max(ga.abs() + gb.abs() + gc.abs());
     for _ in 0..8 {
         let r0 = ((fa * u + fc * v + fd) * u + (fb * v + fe) * v) + ff;
         let r1 = ((ga * u + gc * v + gd) * u + (gb * v + ge) * v) + gf;
@@ -991,7 +994,9 @@ fn newton_plane_lanes(pr: &ProjLanes, mut u: F, mut v: F, lanes: &mut Lanes) -> 
         run = run & !fail;
         u = select(run, u + du, u);
         v = select(run, v + dv, v);
-        let done = run & du.abs().max(dv.abs()).le(tol);
+        let inv = (j[3].abs() + j[1].abs()).max(j[2].abs() + j[0].abs()) * idet.abs();
+        let step = du.abs().max(dv.abs());
+        let done = run & step.le(near) & (inv * q * step * step).le(tol);
         converged = converged | done;
         run = run & !done;
         if !run.any() {
