@@ -971,8 +971,8 @@ fn flat_start_lanes(pr: &ProjLanes, lanes: &mut Lanes) -> (F, F) {
 }
 
 /// `newton_plane` on the live lanes: the last iterates and where they converged (its bound on
-/// the next step, in its operations). A singular Jacobian or a non-finite step hands the lane to
-/// the scalar path.
+/// the next step, in the same operations in the same order, so the same bits). A singular
+/// Jacobian or a non-finite step hands the lane to the scalar path.
 #[inline(always)]
 fn newton_plane_lanes(pr: &ProjLanes, mut u: F, mut v: F, lanes: &mut Lanes) -> (F, F, M) {
     let ([fa, fb, fc, fd, fe, ff], [ga, gb, gc, gd, ge, gf]) = (pr.f, pr.g);
@@ -996,7 +996,8 @@ fn newton_plane_lanes(pr: &ProjLanes, mut u: F, mut v: F, lanes: &mut Lanes) -> 
         v = select(run, v + dv, v);
         let inv = (j[3].abs() + j[1].abs()).max(j[2].abs() + j[0].abs()) * idet.abs();
         let step = du.abs().max(dv.abs());
-        let done = run & step.le(near) & (inv * q * step * step).le(tol);
+        let k = inv * q * step;
+        let done = run & step.le(near) & k.le(F::splat(0.25)) & (k * step).le(tol);
         converged = converged | done;
         run = run & !done;
         if !run.any() {
