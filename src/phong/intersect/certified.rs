@@ -299,7 +299,7 @@ fn flat_start<T: Real>(pr: &Projected<T>) -> Option<(T, T)> {
 /// next step is at most `2 k |δ|∞`: the iteration stops where `k |δ|∞` is within `γ(64)` (and
 /// the step within `√γ(64)`), a step before the step itself is that small; the step in space that
 /// follows polishes a root inside the domain as before. One link fewer in a chain of dependent
-/// operations, which the clock sees more than the instruction count (a certified hit 890
+/// operations, which the clock sees more than the instruction count (a certified hit 898
 /// instructions on the sphere's primary rays, 910 before; `scripts/instructions.sh`). The bound
 /// leaves out the rounding of the residual: where `J` is ill-conditioned the iterates wander
 /// within `|J⁻¹|∞` times it, and the iteration may stop there where stopping at a step within
@@ -335,7 +335,7 @@ fn newton_plane<T: Real>(pr: &Projected<T>, mut u: T, mut v: T) -> Option<(T, T,
 
 #[cfg(test)]
 mod tests {
-    use super::super::conic::project;
+    use super::super::conic::{project, Conic, Projected};
     use super::super::{intersect, intersect_traced, Method, TestOutcome};
     use super::{
         centroid_jacobian, det_sign_on_domain, domain_jacobians, flat_start, folds_between, jacobian,
@@ -444,18 +444,12 @@ mod tests {
             let Some(pr) = project(&p, (o - p.center) * p.inv_scale, d * p.inv_scale) else { continue };
             let Some((u0, v0)) = flat_start(&pr) else { continue };
             let (fk, gk) = (pr.f.k.map(f64::from), pr.g.k.map(f64::from));
+            let pr64 = Projected { f: Conic { k: fk }, g: Conic { k: gk } };
             // Compute the size of a Newton step from `(u, v)` in f64 on the same conics, and
             // the rounding of the f32 residual there.
             let newton = |u: f64, v: f64| {
-                let ([fa, fb, fc, fd, fe, ff], [ga, gb, gc, gd, ge, gf]) = (fk, gk);
-                let r0 = ((fa * u + fc * v + fd) * u + (fb * v + fe) * v) + ff;
-                let r1 = ((ga * u + gc * v + gd) * u + (gb * v + ge) * v) + gf;
-                let j = [
-                    2.0 * fa * u + fc * v + fd,
-                    fc * u + 2.0 * fb * v + fe,
-                    2.0 * ga * u + gc * v + gd,
-                    gc * u + 2.0 * gb * v + ge,
-                ];
+                let (r0, r1) = (pr64.f.at(u, v), pr64.g.at(u, v));
+                let j = jacobian(&pr64, u, v);
                 let det = j[0] * j[3] - j[1] * j[2];
                 let (du, dv) = ((j[1] * r1 - j[3] * r0) / det, (j[2] * r0 - j[0] * r1) / det);
                 let terms = |k: [f64; 6]| {
