@@ -19,8 +19,7 @@ use super::hull::hits_hull;
 use super::hull::hits_hull_v3;
 #[cfg(test)]
 use super::intersect_with;
-use super::net::misses_net;
-use super::{analytic_tail, solve_local, to_local, Method, PatchHit, TestOutcome};
+use super::{refused_tail, solve_local, to_local, Method, PatchHit, TestOutcome};
 use crate::phong::patch::Patch;
 use crate::phong::real::{Real, V3};
 
@@ -94,12 +93,7 @@ pub(super) fn refused_dispatched<T: Real>(
     member: Option<LeanMember<T>>,
 ) -> (Option<PatchHit<T>>, TestOutcome) {
     let (o, d) = to_local(p, org, dir);
-    // The scalar path's first test after both certificates refuse, so that the lanes answer
-    // as it does.
-    if misses_net(p, o, pr) {
-        return (None, TestOutcome::NetMiss);
-    }
-    analytic_tail(p, (org, dir), o, d, pr, tmin, tmax, member)
+    refused_tail(p, (org, dir), o, d, pr, tmin, tmax, member)
 }
 
 /// [`intersect_with`] in its baseline version, whatever the CPU: for comparing the two.

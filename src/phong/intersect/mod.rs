@@ -276,13 +276,31 @@ fn polished<T: Real>(
                 if answer.is_some() { TestOutcome::CertifiedHit } else { TestOutcome::CertifiedMiss };
             return (answer, outcome);
         }
-        // Compute the control-net test before the analytic method: it settles a third to a half
-        // of the misses that both certificates refuse.
-        if misses_net(p, o, &pr) {
-            return (None, TestOutcome::NetMiss);
-        }
+        return refused_tail(p, (org, dir), o, d, &pr, tmin, tmax, None);
     }
     analytic_tail(p, (org, dir), o, d, &pr, tmin, tmax, None)
+}
+
+/// The certified methods' answer where both certificates refused the ray (the tail of
+/// [`polished`], and of the lanes the packet kernel leaves to the scalar path): the
+/// control-net test first (it settles a third to a half of those misses), then
+/// [`analytic_tail`]. Inlined, as [`polished`].
+#[allow(clippy::too_many_arguments)] // as analytic_tail's
+#[inline(always)]
+fn refused_tail<T: Real>(
+    p: &Patch<T>,
+    world: (V3<T>, V3<T>),
+    o: V3<T>,
+    d: V3<T>,
+    pr: &Projected<T>,
+    tmin: T,
+    tmax: T,
+    member: Option<LeanMember<T>>,
+) -> (Option<PatchHit<T>>, TestOutcome) {
+    if misses_net(p, o, pr) {
+        return (None, TestOutcome::NetMiss);
+    }
+    analytic_tail(p, world, o, d, pr, tmin, tmax, member)
 }
 
 /// The analytic method on the ray's conics `pr` where no certificate settled the ray (the tail
