@@ -315,6 +315,19 @@ fn edge_max(q0: f64, q1: f64, qe: f64) -> f64 {
     }
 }
 
+/// [`ConvexTerms`] in explicit vectors where the calling version has AVX2 and FMA
+/// ([`convex_v3`]), in scalar f64 otherwise: a macro, so that `match_target!` expands inside
+/// each version of its multiversioned caller ([`leaves_convex`], [`leaves_patch_lanes`]).
+macro_rules! convex_terms {
+    ($p:expr, $u:expr, $v:expr, $org:expr, $dir:expr) => {{
+        let fast = multiversion::target::match_target! {
+            "x86_64+avx2+fma" => convex_v3($p, $u, $v, $org, $dir),
+            _ => None,
+        };
+        fast.unwrap_or_else(|| convex_scalar($p, $u, $v, $org, $dir))
+    }};
+}
+
 /// [`leaves_patch`] where the ray leaves towards a side `p` is convex towards: [`Lean::Settled`]
 /// of the answer then; when the ray leaves towards a side without the flag (or along the plane
 /// to rounding), whether [`leaves_bounded`] could settle it ([`may_settle_bounded`], on the same
@@ -339,19 +352,6 @@ fn edge_max(q0: f64, q1: f64, qe: f64) -> f64 {
 /// So `(õ - p̃0)·m > 1e-12 M² (M + S + |g|)` (over 40 times the sum of the bounds) proves the
 /// origin above the plane by more than the patch reaches, and `dir·m > 1e-12 M² |dir|` that the
 /// ray never comes closer to it (`t >= tnear >= 0`; `dl` is `dir` times the positive scale).
-/// [`ConvexTerms`] in explicit vectors where the calling version has AVX2 and FMA
-/// ([`convex_v3`]), in scalar f64 otherwise: a macro, so that `match_target!` expands inside
-/// each version of its multiversioned caller ([`leaves_convex`], [`leaves_patch_lanes`]).
-macro_rules! convex_terms {
-    ($p:expr, $u:expr, $v:expr, $org:expr, $dir:expr) => {{
-        let fast = multiversion::target::match_target! {
-            "x86_64+avx2+fma" => convex_v3($p, $u, $v, $org, $dir),
-            _ => None,
-        };
-        fast.unwrap_or_else(|| convex_scalar($p, $u, $v, $org, $dir))
-    }};
-}
-
 #[multiversion::multiversion(targets("x86_64+avx2+fma"))]
 fn leaves_convex<T: Real, const UNFOLDED: bool>(
     p: &Patch<T>,
