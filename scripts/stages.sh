@@ -22,6 +22,7 @@ for tool in valgrind python3 addr2line; do
     command -v $tool >/dev/null || { echo "stages.sh: $tool is not installed" >&2; exit 1; }
 done
 stages=${4:-intersect_callback,occluded_callback,intersect_packet_callback,occluded_packet_callback,\
+intersect_packet_callback_v3,occluded_packet_callback_v3,\
 offer_hits,origin_in,intersect_primitive_from,intersect_lanes,prim_hit,\
 leaves_origin,leaves_patch_by,leaves_convex,leaves_unfolded,unfolded_or_bounded,\
 hull_lanes,project_lanes,proof_lanes,certified_root,solve_lanes,member_lanes,roots_lanes,unsure_answer,refused_dispatched,\

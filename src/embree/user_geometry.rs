@@ -743,7 +743,35 @@ unsafe extern "C" fn bounds_callback<T: UserPrimitives>(args: *const sys::RTCBou
     }
 }
 
-unsafe extern "C" fn intersect_callback<T: UserPrimitives>(args: *const sys::RTCIntersectFunctionNArguments) {
+/// The body of both versions of [`intersect_packet_callback`] (with `intersect_lanes`) and of
+/// [`occluded_packet_callback`] (`occluded_lanes`): a macro, so that the closures run under
+/// `panic::wrap` are written inside each version, and so compiled for its target (a closure
+/// takes the target features of the function it is written in). Each width under its own
+/// `wrap`, 8 with the width a constant (the SOA indexing and the lane loops fold away).
+///
+/// Safety: `$a` is `*$args`, valid arguments from Embree, and `$data` its geometryUserPtr.
+macro_rules! packet_body {
+    ($lanes:ident, $what:literal, $args:expr, $a:expr, $data:expr) => {{
+        let (args, a, data) = ($args, $a, $data);
+        let prims = &data.prims;
+        match a.N as usize {
+            // SAFETY: `a` is the argument block Embree passed, with its own N.
+            8 => panic::wrap(&data.panics, $what, || unsafe { $lanes::<T>(args, a, prims, 8) }),
+            n @ 2..=MAX_N => {
+                // SAFETY: as above.
+                panic::wrap(&data.panics, $what, || unsafe { $lanes::<T>(args, a, prims, n) })
+            }
+            _ => None,
+        };
+    }};
+}
+
+/// The intersect callback, its packet route ([`intersect_packet_callback`]) compiled for
+/// baseline x86-64, or with `V3` for AVX2 and FMA ([`intersect_packet_callback_v3`]: chosen by
+/// [`PacketCode::detect`] when the geometry is made). One lane takes the baseline route in both.
+unsafe extern "C" fn intersect_callback<T: UserPrimitives, const V3: bool>(
+    args: *const sys::RTCIntersectFunctionNArguments,
+) {
     // SAFETY: Embree passes valid arguments for N lanes: `valid` has N ints, `rayhit` is an
     // RTCRayHitN of width N, `context` is the query's context, and geometryUserPtr is our
     // `UserData<T>` (rtcSetGeometryIntersectFunction docs), alive while the scene is.
@@ -756,9 +784,29 @@ unsafe extern "C" fn intersect_callback<T: UserPrimitives>(args: *const sys::RTC
         // SAFETY: `a` is the argument block Embree passed, with N = 1.
         panic::wrap(&data.panics, "intersect", || unsafe { intersect_one::<T>(args, a, &data.prims) });
     } else {
-        // SAFETY: as above, with N != 1.
-        unsafe { intersect_packet_callback::<T>(args, a, data) }
+        // SAFETY: as above, with N != 1; with `V3` the geometry was made by `PacketCode::detect`
+        // on a CPU with AVX2 and FMA (or by a test that checked them).
+        unsafe { intersect_packet_route::<T, V3>(args, a, data) }
     }
+}
+
+/// [`intersect_packet_callback`], or its AVX2 version with `V3`.
+///
+/// # Safety
+/// As [`intersect_packet_callback`]; with `V3`, the CPU has AVX2 and FMA.
+#[inline(always)]
+unsafe fn intersect_packet_route<T: UserPrimitives, const V3: bool>(
+    args: *const sys::RTCIntersectFunctionNArguments,
+    a: &sys::RTCIntersectFunctionNArguments,
+    data: &UserData<T>,
+) {
+    #[cfg(target_arch = "x86_64")]
+    if V3 {
+        // SAFETY: this function's contract, the CPU's features included.
+        return unsafe { intersect_packet_callback_v3::<T>(args, a, data) };
+    }
+    // SAFETY: this function's contract.
+    unsafe { intersect_packet_callback::<T>(args, a, data) }
 }
 
 /// The body of [`intersect_callback`] for one lane.
@@ -796,16 +844,27 @@ unsafe fn intersect_packet_callback<T: UserPrimitives>(
     a: &sys::RTCIntersectFunctionNArguments,
     data: &UserData<T>,
 ) {
-    let prims = &data.prims;
-    match a.N as usize {
-        // SAFETY: `a` is the argument block Embree passed, with its own N.
-        8 => panic::wrap(&data.panics, "intersect", || unsafe { intersect_lanes::<T>(args, a, prims, 8) }),
-        n @ 2..=MAX_N => {
-            // SAFETY: as above.
-            panic::wrap(&data.panics, "intersect", || unsafe { intersect_lanes::<T>(args, a, prims, n) })
-        }
-        _ => None,
-    };
+    // Safety: this function's contract is the macro's.
+    packet_body!(intersect_lanes, "intersect", args, a, data)
+}
+
+/// [`intersect_packet_callback`] compiled for AVX2 and FMA: the lanes read, masked and offered
+/// in 256-bit registers. The same operations as the baseline version (Rust contracts no
+/// `a * b + c` into a fused one), so the same answers (`tests/packets.rs`, and this module's
+/// tests against the baseline version).
+///
+/// # Safety
+/// As [`intersect_packet_callback`], and the CPU has AVX2 and FMA.
+#[cfg(target_arch = "x86_64")]
+#[inline(never)]
+#[target_feature(enable = "avx2,fma")]
+unsafe fn intersect_packet_callback_v3<T: UserPrimitives>(
+    args: *const sys::RTCIntersectFunctionNArguments,
+    a: &sys::RTCIntersectFunctionNArguments,
+    data: &UserData<T>,
+) {
+    // Safety: this function's contract is the macro's.
+    packet_body!(intersect_lanes, "intersect", args, a, data)
 }
 
 /// Offer each active lane's candidate hits on `prim` in a packet, nearest first, to `offer`,
@@ -1046,7 +1105,10 @@ unsafe fn intersect_lanes<T: UserPrimitives>(
     unsafe { for_each_candidate(data, a.primID, valid, ray, Origins::NONE, &mut offer) }
 }
 
-unsafe extern "C" fn occluded_callback<T: UserPrimitives>(args: *const sys::RTCOccludedFunctionNArguments) {
+/// The occluded callback, its packet route chosen as [`intersect_callback`]'s.
+unsafe extern "C" fn occluded_callback<T: UserPrimitives, const V3: bool>(
+    args: *const sys::RTCOccludedFunctionNArguments,
+) {
     // SAFETY: as in `intersect_callback`, with `ray` an RTCRayN of width N
     // (rtcSetGeometryOccludedFunction docs).
     let a = unsafe { &*args };
@@ -1057,9 +1119,28 @@ unsafe extern "C" fn occluded_callback<T: UserPrimitives>(args: *const sys::RTCO
         // SAFETY: `a` is the argument block Embree passed, with N = 1.
         panic::wrap(&data.panics, "occluded", || unsafe { occluded_one::<T>(args, a, &data.prims) });
     } else {
-        // SAFETY: as above, with N != 1.
-        unsafe { occluded_packet_callback::<T>(args, a, data) }
+        // SAFETY: as above, with N != 1; `V3` as in `intersect_callback`.
+        unsafe { occluded_packet_route::<T, V3>(args, a, data) }
     }
+}
+
+/// [`occluded_packet_callback`], or its AVX2 version with `V3`.
+///
+/// # Safety
+/// As [`occluded_packet_callback`]; with `V3`, the CPU has AVX2 and FMA.
+#[inline(always)]
+unsafe fn occluded_packet_route<T: UserPrimitives, const V3: bool>(
+    args: *const sys::RTCOccludedFunctionNArguments,
+    a: &sys::RTCOccludedFunctionNArguments,
+    data: &UserData<T>,
+) {
+    #[cfg(target_arch = "x86_64")]
+    if V3 {
+        // SAFETY: this function's contract, the CPU's features included.
+        return unsafe { occluded_packet_callback_v3::<T>(args, a, data) };
+    }
+    // SAFETY: this function's contract.
+    unsafe { occluded_packet_callback::<T>(args, a, data) }
 }
 
 /// The body of [`occluded_callback`] for one lane.
@@ -1106,16 +1187,24 @@ unsafe fn occluded_packet_callback<T: UserPrimitives>(
     a: &sys::RTCOccludedFunctionNArguments,
     data: &UserData<T>,
 ) {
-    let prims = &data.prims;
-    match a.N as usize {
-        // SAFETY: `a` is the argument block Embree passed, with its own N.
-        8 => panic::wrap(&data.panics, "occluded", || unsafe { occluded_lanes::<T>(args, a, prims, 8) }),
-        n @ 2..=MAX_N => {
-            // SAFETY: as above.
-            panic::wrap(&data.panics, "occluded", || unsafe { occluded_lanes::<T>(args, a, prims, n) })
-        }
-        _ => None,
-    };
+    // Safety: this function's contract is the macro's.
+    packet_body!(occluded_lanes, "occluded", args, a, data)
+}
+
+/// [`occluded_packet_callback`] compiled for AVX2 and FMA, as [`intersect_packet_callback_v3`].
+///
+/// # Safety
+/// As [`occluded_packet_callback`], and the CPU has AVX2 and FMA.
+#[cfg(target_arch = "x86_64")]
+#[inline(never)]
+#[target_feature(enable = "avx2,fma")]
+unsafe fn occluded_packet_callback_v3<T: UserPrimitives>(
+    args: *const sys::RTCOccludedFunctionNArguments,
+    a: &sys::RTCOccludedFunctionNArguments,
+    data: &UserData<T>,
+) {
+    // Safety: this function's contract is the macro's.
+    packet_body!(occluded_lanes, "occluded", args, a, data)
 }
 
 /// The body of [`occluded_callback`] for packet width `n`.
@@ -1474,6 +1563,46 @@ pub(crate) unsafe fn new_user_geometry<T: UserPrimitives>(
     data: *const UserData<T>,
     options: GeometryOptions,
 ) -> sys::RTCGeometry {
+    // SAFETY: this function's contract; the packet code is this CPU's.
+    unsafe { new_user_geometry_for(device_raw, data, options, PacketCode::detect()) }
+}
+
+/// The code the packet callbacks run: compiled for baseline x86-64 (or the target's own), or
+/// for AVX2 and FMA where the CPU has them (x86-64 only). Chosen once, when a geometry is made:
+/// the callbacks Embree is given are those of the choice, with no test per call.
+#[derive(Clone, Copy, Debug, PartialEq, Eq)]
+pub(crate) enum PacketCode {
+    /// The crate's own target.
+    Baseline,
+    /// AVX2 and FMA.
+    Avx2Fma,
+}
+
+impl PacketCode {
+    /// The fastest this CPU runs.
+    pub(crate) fn detect() -> Self {
+        #[cfg(target_arch = "x86_64")]
+        if std::arch::is_x86_feature_detected!("avx2") && std::arch::is_x86_feature_detected!("fma") {
+            return PacketCode::Avx2Fma;
+        }
+        PacketCode::Baseline
+    }
+}
+
+/// [`new_user_geometry`] with the packet callbacks of `code`.
+///
+/// # Safety
+/// As [`new_user_geometry`], and the CPU runs `code` (as [`PacketCode::detect`] says).
+pub(crate) unsafe fn new_user_geometry_for<T: UserPrimitives>(
+    device_raw: sys::RTCDevice,
+    data: *const UserData<T>,
+    options: GeometryOptions,
+    code: PacketCode,
+) -> sys::RTCGeometry {
+    let (intersect, occluded): (sys::RTCIntersectFunctionN, sys::RTCOccludedFunctionN) = match code {
+        PacketCode::Baseline => (Some(intersect_callback::<T, false>), Some(occluded_callback::<T, false>)),
+        PacketCode::Avx2Fma => (Some(intersect_callback::<T, true>), Some(occluded_callback::<T, true>)),
+    };
     // SAFETY: the caller guarantees the device and data; the callbacks are monomorphised for
     // `T` and only ever cast geometryUserPtr back to `UserData<T>`; a null geometry (error
     // recorded on the device) is returned as is (rtcNewGeometry docs).
@@ -1485,8 +1614,8 @@ pub(crate) unsafe fn new_user_geometry<T: UserPrimitives>(
         sys::rtcSetGeometryUserPrimitiveCount(geom, (*data).prims.count());
         sys::rtcSetGeometryUserData(geom, data as *mut c_void);
         sys::rtcSetGeometryBoundsFunction(geom, Some(bounds_callback::<T>), std::ptr::null_mut());
-        sys::rtcSetGeometryIntersectFunction(geom, Some(intersect_callback::<T>));
-        sys::rtcSetGeometryOccludedFunction(geom, Some(occluded_callback::<T>));
+        sys::rtcSetGeometryIntersectFunction(geom, intersect);
+        sys::rtcSetGeometryOccludedFunction(geom, occluded);
         sys::rtcSetGeometryMask(geom, options.mask);
         sys::rtcCommitGeometry(geom);
         geom
@@ -1505,6 +1634,16 @@ impl Scene {
         prims: T,
         options: GeometryOptions,
     ) -> Result<u32, EmbreeError> {
+        self.attach_user_for(prims, options, PacketCode::detect())
+    }
+
+    /// [`Scene::attach_user`] with the packet callbacks of `code`, which this CPU must run.
+    fn attach_user_for<T: UserPrimitives>(
+        &mut self,
+        prims: T,
+        options: GeometryOptions,
+        code: PacketCode,
+    ) -> Result<u32, EmbreeError> {
         let boxed = Box::new(UserData::new(prims));
         let ptr: *const UserData<T> = &*boxed;
         let record = boxed.panics.clone();
@@ -1518,8 +1657,8 @@ impl Scene {
                 let _device = device.lock();
                 // SAFETY: the device is live and locked; `ptr` points into the box the scene now
                 // owns, released only after the scene (and so the geometry) is (SceneHandle
-                // field order).
-                unsafe { new_user_geometry(device.raw(), ptr, options) }
+                // field order); the CPU runs `code` (this function's contract).
+                unsafe { new_user_geometry_for(device.raw(), ptr, options, code) }
             };
             OwnedGeometry::new(&device, raw, "user geometry")
         })??;
@@ -1574,5 +1713,67 @@ impl UserPrimitives for UserTriangles {
         }
         let t = e2.dot(q) * inv;
         (t > tnear && t < tfar).then(|| PrimHit { t, u, v, ng: e1.cross(e2), prim })
+    }
+}
+
+#[cfg(test)]
+mod tests {
+    use super::*;
+    use crate::embree::{Device, PhongMesh};
+    use crate::phong::accuracy::SplitMix;
+
+    /// The packet callbacks compiled for AVX2 and FMA answer as the baseline ones, bit for bit:
+    /// 8-ray packets of camera rays and of random rays on a Phong sphere, every mask, then
+    /// their shadow rays from the hits (the origins given), both versions' hits and occlusions
+    /// compared lane by lane.
+    #[test]
+    fn the_avx2_packet_callbacks_answer_as_the_baseline_ones() {
+        if PacketCode::detect() != PacketCode::Avx2Fma {
+            eprintln!("this CPU lacks AVX2 or FMA: only the baseline callbacks run here");
+            return;
+        }
+        let device = Device::new().unwrap();
+        let m = crate::scene::uv_sphere(12, 6, 1.0);
+        let mesh = Arc::new(PhongMesh::new(&m.positions, &m.normals, &m.indices, 0.75).unwrap());
+        let scene = |code| {
+            let mut s = Scene::new(&device).unwrap();
+            s.attach_user_for(mesh.clone(), GeometryOptions::default(), code).unwrap();
+            s.commit().unwrap()
+        };
+        let (base, v3) = (scene(PacketCode::Baseline), scene(PacketCode::Avx2Fma));
+        let mut rng = SplitMix(23);
+        let light = Vec3::new(-0.4, 0.8, 0.45).normalize();
+        let (mut hits, mut blocked) = (0, 0);
+        for i in 0..4000 {
+            let rays: [Ray; PACKET8] = std::array::from_fn(|k| {
+                if i % 2 == 0 {
+                    // A 4x2 block of camera rays.
+                    let (x, y) = ((i / 2 % 40) * 4 + k % 4, (i / 80) * 2 + k / 4);
+                    let s = Vec3::new(x as f32 / 160.0 - 0.5, 0.5 - y as f32 / 100.0, -1.0);
+                    Ray::new(Vec3::new(0.1, 0.2, 3.0), s * Vec3::new(2.6, 2.6, 1.0))
+                } else {
+                    let o = rng.unit().as_vec3() * 3.0;
+                    Ray::new(o, rng.unit().as_vec3() * 0.9 - o)
+                }
+            });
+            let mask = if i % 3 == 0 { 0xFF } else { rng.next_u64() as u8 };
+            let (a, b) = (base.intersect8_rays(&rays, mask, true), v3.intersect8_rays(&rays, mask, true));
+            assert_eq!(a, b, "packet {i}, mask {mask:#04x}");
+            let mut shadow = [Ray::new(Vec3::ZERO, light); PACKET8];
+            let mut origins = [None; PACKET8];
+            let mut lit = 0u8;
+            for (k, h) in a.iter().enumerate() {
+                let Some(h) = h else { continue };
+                let n = if h.ng.dot(rays[k].dir) > 0.0 { -h.ng } else { h.ng };
+                let p = rays[k].org + rays[k].dir * h.t + n.normalize() * 1e-4;
+                (shadow[k], origins[k]) = (Ray::new(p, light), Some(RayOrigin::of_hit(h)));
+                lit |= 1 << k;
+                hits += 1;
+            }
+            let occ = base.occluded8_rays_from(&shadow, &origins, lit, true);
+            assert_eq!(occ, v3.occluded8_rays_from(&shadow, &origins, lit, true), "shadows of packet {i}");
+            blocked += occ.count_ones();
+        }
+        assert!(hits > 5_000 && blocked > 500, "{hits} hits, {blocked} shadow rays blocked");
     }
 }
