@@ -60,6 +60,9 @@ pub fn run() -> Result<Vec<String>, Box<dyn std::error::Error>> {
     // RTCDevice and RTCScene are opaque pointers to the same objects whichever header declares
     // them, so the casts between the two crates' handle types are exact.
     unsafe {
+        // Flush-to-zero and denormals-are-zero on this thread, which traces (Embree's advice;
+        // set_flush_denormals' contract: nothing here depends for soundness on a float result).
+        phongrt::embree::set_flush_denormals();
         let device = embree4_sys::rtcNewDevice(ptr::null());
         if device.is_null() {
             return Err("rtcNewDevice failed".into());

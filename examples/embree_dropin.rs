@@ -84,6 +84,9 @@ fn main() -> Result<(), Box<dyn std::error::Error>> {
     // outlives every trace of the scene (attach_phong_raw's contract): it is dropped after
     // rtcReleaseScene.
     unsafe {
+        // Flush-to-zero and denormals-are-zero on this thread, which traces (Embree's advice;
+        // set_flush_denormals' contract: nothing here depends for soundness on a float result).
+        phongrt::embree::set_flush_denormals();
         let device = sys::rtcNewDevice(ptr::null());
         if device.is_null() {
             return Err("rtcNewDevice failed".into());

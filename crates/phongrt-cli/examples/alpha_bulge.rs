@@ -50,6 +50,12 @@ fn largest_radius(world: &World, center: Vec3) -> f32 {
 }
 
 fn main() -> anyhow::Result<()> {
+    // On one thread of a pool that sets flush-to-zero and denormals-are-zero, as every thread
+    // that traces rays.
+    phongrt::embree::thread_pool_builder().num_threads(1).build()?.install(run)
+}
+
+fn run() -> anyhow::Result<()> {
     let device = Device::new()?;
     println!("| model | alpha | largest radius / corner radius | silhouette area / flat |");
     println!("|---|---|---|---|");

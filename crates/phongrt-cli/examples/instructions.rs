@@ -65,7 +65,16 @@ fn main() -> ExitCode {
         };
         count_work(&name, &mesh(scene)?, 256, kind, what).map_err(|e| e.to_string())
     };
-    match run() {
+    // On one thread of a pool that sets flush-to-zero and denormals-are-zero, as every thread
+    // that traces rays (Embree's recommendation; the bench's and the renderer's threads do).
+    let pool = match phongrt::embree::thread_pool_builder().num_threads(1).build() {
+        Ok(pool) => pool,
+        Err(e) => {
+            eprintln!("instructions: a thread pool: {e}");
+            return ExitCode::FAILURE;
+        }
+    };
+    match pool.install(run) {
         Ok(n) => {
             println!("{n}");
             ExitCode::SUCCESS
