@@ -1574,7 +1574,8 @@ pub(crate) unsafe fn new_user_geometry<T: UserPrimitives>(
 pub(crate) enum PacketCode {
     /// The crate's own target.
     Baseline,
-    /// AVX2 and FMA.
+    /// AVX2 and FMA (x86-64 only).
+    #[cfg_attr(not(target_arch = "x86_64"), allow(dead_code))]
     Avx2Fma,
 }
 

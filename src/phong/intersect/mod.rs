@@ -79,8 +79,11 @@ pub enum Method {
     CertifiedPositiveDefinite,
 }
 
-/// Which path a ray–patch test took: what [`intersect_traced`] reports, for profiling.
+/// Which path a ray–patch test took: what [`intersect_traced`] reports, for profiling. New
+/// paths of the solve add variants (as the control-net test added [`TestOutcome::NetMiss`]), so
+/// a match outside this crate needs a wildcard arm; [`TestOutcome::ALL`] lists them all.
 #[derive(Clone, Copy, Debug, PartialEq, Eq, Hash)]
+#[non_exhaustive]
 pub enum TestOutcome {
     /// Turned away before any solve: a degenerate patch, a NaN interval, a non-finite or zero ray.
     BadInput,
