@@ -784,29 +784,15 @@ unsafe extern "C" fn intersect_callback<T: UserPrimitives, const V3: bool>(
         // SAFETY: `a` is the argument block Embree passed, with N = 1.
         panic::wrap(&data.panics, "intersect", || unsafe { intersect_one::<T>(args, a, &data.prims) });
     } else {
-        // SAFETY: as above, with N != 1; with `V3` the geometry was made by `PacketCode::detect`
-        // on a CPU with AVX2 and FMA (or by a test that checked them).
-        unsafe { intersect_packet_route::<T, V3>(args, a, data) }
+        #[cfg(target_arch = "x86_64")]
+        if V3 {
+            // SAFETY: as above, with N != 1, and with `V3` the geometry was made by
+            // `PacketCode::detect` on a CPU with AVX2 and FMA (or by a test that checked them).
+            return unsafe { intersect_packet_callback_v3::<T>(args, a, data) };
+        }
+        // SAFETY: as above, with N != 1.
+        unsafe { intersect_packet_callback::<T>(args, a, data) }
     }
-}
-
-/// [`intersect_packet_callback`], or its AVX2 version with `V3`.
-///
-/// # Safety
-/// As [`intersect_packet_callback`]; with `V3`, the CPU has AVX2 and FMA.
-#[inline(always)]
-unsafe fn intersect_packet_route<T: UserPrimitives, const V3: bool>(
-    args: *const sys::RTCIntersectFunctionNArguments,
-    a: &sys::RTCIntersectFunctionNArguments,
-    data: &UserData<T>,
-) {
-    #[cfg(target_arch = "x86_64")]
-    if V3 {
-        // SAFETY: this function's contract, the CPU's features included.
-        return unsafe { intersect_packet_callback_v3::<T>(args, a, data) };
-    }
-    // SAFETY: this function's contract.
-    unsafe { intersect_packet_callback::<T>(args, a, data) }
 }
 
 /// The body of [`intersect_callback`] for one lane.
@@ -1119,28 +1105,14 @@ unsafe extern "C" fn occluded_callback<T: UserPrimitives, const V3: bool>(
         // SAFETY: `a` is the argument block Embree passed, with N = 1.
         panic::wrap(&data.panics, "occluded", || unsafe { occluded_one::<T>(args, a, &data.prims) });
     } else {
-        // SAFETY: as above, with N != 1; `V3` as in `intersect_callback`.
-        unsafe { occluded_packet_route::<T, V3>(args, a, data) }
+        #[cfg(target_arch = "x86_64")]
+        if V3 {
+            // SAFETY: as above, with N != 1; `V3` as in `intersect_callback`.
+            return unsafe { occluded_packet_callback_v3::<T>(args, a, data) };
+        }
+        // SAFETY: as above, with N != 1.
+        unsafe { occluded_packet_callback::<T>(args, a, data) }
     }
-}
-
-/// [`occluded_packet_callback`], or its AVX2 version with `V3`.
-///
-/// # Safety
-/// As [`occluded_packet_callback`]; with `V3`, the CPU has AVX2 and FMA.
-#[inline(always)]
-unsafe fn occluded_packet_route<T: UserPrimitives, const V3: bool>(
-    args: *const sys::RTCOccludedFunctionNArguments,
-    a: &sys::RTCOccludedFunctionNArguments,
-    data: &UserData<T>,
-) {
-    #[cfg(target_arch = "x86_64")]
-    if V3 {
-        // SAFETY: this function's contract, the CPU's features included.
-        return unsafe { occluded_packet_callback_v3::<T>(args, a, data) };
-    }
-    // SAFETY: this function's contract.
-    unsafe { occluded_packet_callback::<T>(args, a, data) }
 }
 
 /// The body of [`occluded_callback`] for one lane.

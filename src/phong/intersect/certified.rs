@@ -343,8 +343,7 @@ mod tests {
     };
     use crate::phong::accuracy::{generate, Case, Category, SplitMix};
     use crate::phong::patch::Patch;
-    use crate::phong::real::Real;
-    use crate::phong::real::V3;
+    use crate::phong::real::{Real, V3};
     use crate::phong::reference::reference_intersect;
     use glam::DVec3;
     use proptest::prelude::*;
