@@ -225,25 +225,45 @@ struct Search<T> {
     unsure_split: bool,
     /// A member split into lines whose intersections were decided without a near tangency.
     clean_split: bool,
-    /// The residual gate before polish (relative to the unit patch).
-    size_tol: T,
+    /// The gates its roots pass.
+    gates: RootGates<T>,
+}
+
+/// The gates a root of the analytic solve passes, in one home for the full search, the lean
+/// solve and the lanes' (`lanes::roots`): all relative to the unit patch.
+#[derive(Clone, Copy, Debug)]
+pub(super) struct RootGates<T> {
+    /// The residual gate before polish: the distance from the root's point to the ray.
+    pub(super) size_tol: T,
     /// The distance from the domain beyond which a root is decided: the residual gate's own
-    /// tolerance, relative to the unit patch, is the largest parameter error a root can carry.
-    far: T,
+    /// tolerance is the largest parameter error a root can carry.
+    pub(super) far: T,
+    /// The band around the domain within which a root is polished (the lean solves).
+    pub(super) polish_band: T,
+}
+
+impl<T: Real> RootGates<T> {
+    /// The gates in precision `T`.
+    #[inline(always)]
+    pub(super) fn new() -> Self {
+        let size_tol = T::gamma(64).sqrt();
+        RootGates {
+            size_tol,
+            far: size_tol * T::from_f64(16.0) + edge_band::<T>(),
+            polish_band: edge_band::<T>() * T::from_f64(4.0),
+        }
+    }
 }
 
 impl<T: Real> Search<T> {
     fn new(near_multiple: bool) -> Self {
-        let size_tol = T::gamma(64).sqrt();
-        let far = size_tol * T::from_f64(16.0) + edge_band::<T>();
         Search {
             best: None,
             best_unsure: false,
             ambiguous: near_multiple,
             unsure_split: false,
             clean_split: false,
-            size_tol,
-            far,
+            gates: RootGates::new(),
         }
     }
 
@@ -282,14 +302,14 @@ impl<T: Real> Search<T> {
         // Far outside the domain (beyond what rounding or a Newton step can move): not a hit in
         // any precision. Also keeps points near infinity (a line almost parallel to a
         // parabola's axis) out of the residual gate below.
-        if !near_domain(u, v, self.far) {
+        if !near_domain(u, v, self.gates.far) {
             return false;
         }
         let (o, d) = (ray.o, ray.d);
         let q = p.eval_local(u, v) - o;
         let t = q.dot(d) / d.dot(d);
         // Reject spurious roots (from rounding in the pencil) by the distance to the ray.
-        if !((q - d * t).length() <= self.size_tol) {
+        if !((q - d * t).length() <= self.gates.size_tol) {
             self.ambiguous = true;
             return false;
         }
@@ -392,7 +412,8 @@ fn lean_roots<T: Real>(
     let LeanMember { lines, near_multiple, .. } = member;
     // Compute the roots on its lines near the domain, gated by the distance to the ray.
     let s = Search::<T>::new(near_multiple);
-    let (tol2, polish_band) = (s.size_tol * s.size_tol, edge_band::<T>() * T::from_f64(4.0));
+    let RootGates { size_tol, far, polish_band } = s.gates;
+    let tol2 = size_tol * size_tol;
     let (o, d) = (ray.o, ray.d);
     let inv_dd = T::ONE / d.dot(d);
     let mut cand =
@@ -404,13 +425,13 @@ fn lean_roots<T: Real>(
             // A tangency whose points, wherever rounding puts them, stay beyond the far band
             // of the domain decides nothing: such a line is passed over, as a root there is.
             // Near the domain it is a grazing ray, for f64 to decide.
-            if pts[..n].iter().any(|&(u, v)| near_domain(u, v, s.far + reach)) {
+            if pts[..n].iter().any(|&(u, v)| near_domain(u, v, far + reach)) {
                 return Err(Undecided::NearTangent);
             }
             continue;
         }
         for &(u, v) in &pts[..n] {
-            if !near_domain(u, v, s.far) {
+            if !near_domain(u, v, far) {
                 continue;
             }
             let q = p.eval_local(u, v) - o;

@@ -13,6 +13,7 @@
 use super::{
     clamp_lanes, gamma, near, newton_step_lanes, on_ray_lanes, select, sliver_lanes, PatchLanes, F, M, V,
 };
+use crate::phong::intersect::analytic::RootGates;
 use crate::phong::intersect::domain::{domain_tolerance, edge_band};
 use crate::phong::patch::Patch;
 use crate::phong::real::Real;
@@ -45,9 +46,8 @@ pub(super) fn roots_lanes(
     let mut ok = lanes;
     // Compute the lines' meetings with the other conic, gated by the distance to the ray
     // (`lean_roots`): four slots, two a line.
-    let size_tol = <f32 as Real>::gamma(64).sqrt();
-    let far = size_tol * 16.0 + edge_band::<f32>();
-    let (tol2, polish_band) = (F::splat(size_tol * size_tol), edge_band::<f32>() * 4.0);
+    let RootGates { size_tol, far, polish_band } = RootGates::<f32>::new();
+    let tol2 = F::splat(size_tol * size_tol);
     let inv_dd = F::splat(1.0) / d.dot(d);
     let mut slot = [(zero, zero, zero); 4];
     let mut valid = [M::none(); 4];
