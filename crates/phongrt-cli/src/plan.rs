@@ -132,9 +132,10 @@ pub(crate) fn gb(bytes: u64) -> String {
 /// Resolve and check every option that needs no mesh: all of it happens before loading.
 pub(crate) fn plan(args: &RenderArgs, sf: Option<&SceneFile>) -> anyhow::Result<RenderPlan> {
     check_flag_ranges(args)?;
-    let width = args.width.or(sf.and_then(|s| s.render.width)).unwrap_or(800);
-    let height = args.height.or(sf.and_then(|s| s.render.height)).unwrap_or(600);
-    let spp = args.spp.or(sf.and_then(|s| s.render.spp)).unwrap_or(1);
+    let default = render::RenderSettings::default();
+    let width = args.width.or(sf.and_then(|s| s.render.width)).unwrap_or(default.width);
+    let height = args.height.or(sf.and_then(|s| s.render.height)).unwrap_or(default.height);
+    let spp = args.spp.or(sf.and_then(|s| s.render.spp)).unwrap_or(default.spp);
     let f = &args.farm;
 
     // Compute the window: a crop, a tile, or the whole frame.

@@ -125,9 +125,9 @@ pub enum RenderError {
 /// What to render and how.
 #[derive(Clone, Debug)]
 pub struct RenderSettings {
-    /// Width of the full frame in pixels (default 640).
+    /// Width of the full frame in pixels (default 800, as `phongrt render`'s).
     pub width: u32,
-    /// Height of the full frame in pixels (default 480).
+    /// Height of the full frame in pixels (default 600, as `phongrt render`'s).
     pub height: u32,
     /// Samples per pixel (stratified on a square grid when a perfect square).
     pub spp: u32,
@@ -140,7 +140,7 @@ pub struct RenderSettings {
 
 impl Default for RenderSettings {
     fn default() -> Self {
-        RenderSettings { width: 640, height: 480, spp: 1, seed: 0, packets: true }
+        RenderSettings { width: 800, height: 600, spp: 1, seed: 0, packets: true }
     }
 }
 
