@@ -3,7 +3,6 @@
 //! scene file; the world it builds is immutable.
 
 use std::path::{Path, PathBuf};
-use std::rc::Rc;
 use std::sync::Arc;
 
 use glam::Vec3;
@@ -63,7 +62,7 @@ impl From<Surface> for SurfaceOverride {
 }
 
 /// The per-mesh settings: `settings(i, mesh)` for mesh `i` of the scene.
-type SettingsFn<'a> = Rc<dyn Fn(usize, &sc::Mesh) -> ObjectSettings + 'a>;
+type SettingsFn<'a> = Arc<dyn Fn(usize, &sc::Mesh) -> ObjectSettings + Send + Sync + 'a>;
 
 /// Builds a [`World`] from a loaded scene: start with [`World::builder`], chain the setters
 /// (each replaces what an earlier call set; the later call wins), then [`WorldBuilder::build`].
@@ -96,7 +95,7 @@ impl World {
         WorldBuilder {
             device,
             input,
-            settings: Rc::new(|_, _| {
+            settings: Arc::new(|_, _| {
                 ObjectSettings::new(ObjectMode::Phong { alpha: phongrt::phong::DEFAULT_ALPHA })
             }),
             ground: None,
@@ -117,7 +116,7 @@ impl World {
     pub fn from_scene(
         device: &Device,
         input: &sc::Model,
-        settings: impl Fn(usize, &sc::Mesh) -> ObjectSettings,
+        settings: impl Fn(usize, &sc::Mesh) -> ObjectSettings + Send + Sync,
     ) -> Result<World, RenderError> {
         World::builder(device, input).settings(settings).build()
     }
@@ -125,8 +124,13 @@ impl World {
 
 impl<'a> WorldBuilder<'a> {
     /// `settings(i, mesh)` chooses the mode of mesh `i` (and whether its creases stay straight).
-    pub fn settings(mut self, settings: impl Fn(usize, &sc::Mesh) -> ObjectSettings + 'a) -> Self {
-        self.settings = Rc::new(settings);
+    /// It is `Send + Sync`, as the builder is: a builder can be made on one thread and built on
+    /// another.
+    pub fn settings(
+        mut self,
+        settings: impl Fn(usize, &sc::Mesh) -> ObjectSettings + Send + Sync + 'a,
+    ) -> Self {
+        self.settings = Arc::new(settings);
         self
     }
 
@@ -230,7 +234,7 @@ impl<'a> WorldBuilder<'a> {
         // Compute the objects' modes and surfaces.
         let objects = sf.objects.clone();
         let settings = self.settings.clone();
-        self.settings = Rc::new(move |i, mesh| {
+        self.settings = Arc::new(move |i, mesh| {
             let s = settings(i, mesh);
             let matching = objects.iter().filter(|o| o.name == "*" || o.name == mesh.name);
             ObjectSettings {
@@ -452,6 +456,20 @@ mod tests {
         let mut scene = sc::Model::from_mesh(a);
         scene.meshes.push(b);
         scene
+    }
+
+    /// A builder set up on one thread builds on another (it is `Send`: its settings closure
+    /// too), with the settings it was given.
+    #[test]
+    fn a_builder_made_on_one_thread_builds_on_another() {
+        let device = Device::new().unwrap();
+        let scene = two_spheres();
+        let builder = World::builder(&device, &scene).settings(|i, _| {
+            ObjectSettings::new(if i == 0 { ObjectMode::Flat } else { ObjectMode::Phong { alpha: 0.5 } })
+        });
+        let world = std::thread::scope(|s| s.spawn(move || builder.build()).join().unwrap()).unwrap();
+        let phong: Vec<_> = world.objects().iter().map(|o| o.geometry.phong().is_some()).collect();
+        assert_eq!(phong, [false, true]);
     }
 
     #[test]
