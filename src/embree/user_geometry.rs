@@ -1692,6 +1692,27 @@ impl UserPrimitives for UserTriangles {
         let t = e2.dot(q) * inv;
         (t > tnear && t < tfar).then(|| PrimHit { t, u, v, ng: e1.cross(e2), prim })
     }
+
+    // Lane by lane from the lanes as the callback read them: the default would copy them into a
+    // packet of 16 first, which a floor should not pay.
+    #[inline(always)]
+    fn intersect_packet8(
+        &self,
+        prim: u32,
+        rays: &LaneRays,
+        active: [bool; LANES],
+        _origin: &LaneOrigins,
+    ) -> [Option<PrimHit>; LANES] {
+        std::array::from_fn(|i| {
+            let (org, dir) = rays.ray(i);
+            let (org, dir) = (Vec3::from(org), Vec3::from(dir));
+            if active[i] {
+                self.intersect(prim, org, dir, rays.tmin[i], rays.tmax[i])
+            } else {
+                None
+            }
+        })
+    }
 }
 
 #[cfg(test)]
