@@ -125,7 +125,7 @@ pub struct EnvironmentSection {
 pub struct GroundSection {
     /// Where the plane lies along the up axis (default: the bottom of the scene bounds).
     pub height: Option<f32>,
-    /// Diffuse reflectance (default 0.6 grey).
+    /// Diffuse reflectance, each in [0, 1] (default 0.6 grey).
     #[serde(default, deserialize_with = "opt_vec3")]
     pub kd: Option<[f32; 3]>,
 }
@@ -261,10 +261,10 @@ pub struct ObjectSection {
     /// had (for an object that was flat, the alpha asked for elsewhere: see
     /// [`ObjectSection::mode_over`]).
     pub alpha: Option<f32>,
-    /// Diffuse reflectance (as MTL `Kd`), linear RGB, each >= 0.
+    /// Diffuse reflectance (as MTL `Kd`), linear RGB, each in [0, 1].
     #[serde(default, deserialize_with = "opt_vec3")]
     pub kd: Option<[f32; 3]>,
-    /// Mirror reflectance, linear RGB, each >= 0; non-zero turns on reflection rays.
+    /// Mirror reflectance, linear RGB, each in [0, 1]; non-zero turns on reflection rays.
     #[serde(default, deserialize_with = "opt_vec3")]
     pub mirror: Option<[f32; 3]>,
     /// Fraction of light transmitted (refracted), in [0, 1]; non-zero turns on refraction
@@ -439,6 +439,17 @@ impl Checker<'_> {
         }
     }
 
+    /// A reflectance: each value in [0, 1] (above 1 a surface would reflect more light than it
+    /// receives).
+    fn reflectance(&self, key: &str, v: &[f32]) -> Result<(), SceneFileError> {
+        self.nonneg(key, v)?;
+        if v.iter().all(|&x| x <= 1.0) {
+            Ok(())
+        } else {
+            Err(self.bad(key.into(), format!("{v:?} has a value above 1")))
+        }
+    }
+
     /// `[camera]`: finite vectors, a non-zero up, and eye/look_at/up that make a view when all
     /// are given (with automatic framing the rest is checked when the camera is made).
     fn camera(&self, c: &CameraSection) -> Result<(), SceneFileError> {
@@ -562,15 +573,9 @@ impl Checker<'_> {
                 return Err(self.bad(key("alpha"), format!("{a} is not in [0, 1]")));
             }
         }
-        for (k, v) in [("kd", o.kd), ("mirror", o.mirror)] {
+        for (k, v) in [("kd", o.kd), ("mirror", o.mirror), ("specular", o.specular)] {
             if let Some(v) = v {
-                self.nonneg(&key(k), &v)?;
-            }
-        }
-        if let Some(v) = o.specular {
-            self.nonneg(&key("specular"), &v)?;
-            if v.iter().any(|&x| x > 1.0) {
-                return Err(self.bad(key("specular"), format!("{v:?} has a value above 1")));
+                self.reflectance(&key(k), &v)?;
             }
         }
         if let Some(n) = o.shininess {
@@ -613,7 +618,7 @@ impl Checker<'_> {
             self.finite("ground.height", &[h])?;
         }
         if let Some(kd) = g.kd {
-            self.nonneg("ground.kd", &kd)?;
+            self.reflectance("ground.kd", &kd)?;
         }
         Ok(())
     }

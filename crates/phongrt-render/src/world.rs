@@ -158,9 +158,24 @@ impl Surface {
     }
 
     /// As [`Surface::from_material`], with a one-line warning (naming `file` and the material)
-    /// for each value out of range and clamped: a negative `Ns`, a `Ks` above 1.
+    /// for each value out of range and clamped: a `Kd` outside [0, 1] (above 1 a surface would
+    /// reflect more light than it receives), a negative `Ns`, a `Ks` above 1.
     pub fn from_material_checked(m: &sc::Material, file: &Path) -> (Self, Vec<String>) {
         let mut warnings = Vec::new();
+        let kd = if m.kd.is_finite() { m.kd } else { Vec3::ZERO };
+        let kd = if kd.min_element() < 0.0 || kd.max_element() > 1.0 {
+            warnings.push(format!(
+                "{}: material {:?}: Kd {} {} {} is outside [0, 1]; clamped",
+                file.display(),
+                m.name,
+                m.kd.x,
+                m.kd.y,
+                m.kd.z
+            ));
+            kd.clamp(Vec3::ZERO, Vec3::ONE)
+        } else {
+            kd
+        };
         let ks = if m.ks.is_finite() { m.ks.max(Vec3::ZERO) } else { Vec3::ZERO };
         let ks = if ks.max_element() > 1.0 {
             warnings.push(format!(
@@ -198,7 +213,7 @@ impl Surface {
         };
         let transmission = (1.0 - m.dissolve).clamp(0.0, 1.0);
         let ior = if m.ni.is_finite() && m.ni >= 1.0 { m.ni } else { 1.0 };
-        (Surface { kd: m.kd, mirror, transmission, ior, specular, shininess }, warnings)
+        (Surface { kd, mirror, transmission, ior, specular, shininess }, warnings)
     }
 
     /// Whether the surface has a highlight lobe (specular evaluation per light).

@@ -90,6 +90,24 @@ fn negative_ns_and_ks_above_one_warn_once_naming_the_file_and_are_clamped() {
     assert!(none.is_empty());
 }
 
+/// An MTL `Kd` outside [0, 1] (above 1 the surface would reflect more light than it receives;
+/// below 0, negative light) warns once, naming the file and the material, and is clamped.
+#[test]
+fn kd_outside_0_to_1_warns_naming_the_file_and_is_clamped() {
+    let m = Material { name: "hot".into(), kd: Vec3::new(1.5, -0.2, 0.5), ..glossy() };
+    let (s, w) = Surface::from_material_checked(&m, Path::new("models/a.obj"));
+    assert_eq!(w.len(), 1, "{w:?}");
+    assert!(
+        w[0].starts_with("models/a.obj: material \"hot\": Kd 1.5 -0.2 0.5") && !w[0].contains('\n'),
+        "{w:?}"
+    );
+    assert_eq!(s.kd, Vec3::new(1.0, 0.0, 0.5));
+    let (s, none) =
+        Surface::from_material_checked(&Material { kd: Vec3::ONE, ..glossy() }, Path::new("a.obj"));
+    assert!(none.is_empty(), "{none:?}");
+    assert_eq!(s.kd, Vec3::ONE);
+}
+
 #[test]
 fn fresnel_reflectance_is_4_percent_head_on_and_rises_to_1_at_grazing() {
     let eta = 1.0 / 1.5f32;

@@ -215,6 +215,33 @@ fn scene_file_errors_name_file_key_and_problem() {
     assert_eq!(ok.obj_path(p).unwrap(), Path::new("scenes/a.obj"));
 }
 
+/// A reflectance above 1 would make a surface reflect more light than it receives: `kd`,
+/// `mirror` and `specular` of an object and the ground's `kd` are refused above 1, as below 0,
+/// with the file, the key and the value on one line; 1 itself is accepted.
+#[test]
+fn scene_file_reflectances_above_1_are_one_line_errors_naming_the_key() {
+    let p = Path::new("scenes/bright.toml");
+    for (section, key, at) in [
+        ("[[object]]\nname = \"*\"\n", "kd", "object[0].kd"),
+        ("[[object]]\nname = \"*\"\n", "mirror", "object[0].mirror"),
+        ("[[object]]\nname = \"*\"\n", "specular", "object[0].specular"),
+        ("[ground]\n", "kd", "ground.kd"),
+    ] {
+        for (value, problem) in [("[0.5, 1.2, 0.5]", "above 1"), ("[0.5, -0.1, 0.5]", "negative")] {
+            let text = format!("{section}{key} = {value}\n");
+            let e = SceneFile::parse(&text, p).unwrap_err().to_string();
+            assert!(
+                e.contains("scenes/bright.toml")
+                    && e.contains(at)
+                    && e.contains(problem)
+                    && !e.contains('\n'),
+                "{text:?}: {e}"
+            );
+        }
+        SceneFile::parse(&format!("{section}{key} = [1.0, 1.0, 0.0]\n"), p).unwrap();
+    }
+}
+
 #[test]
 fn scene_file_mode_takes_the_command_line_mode_names() {
     for m in SurfaceMode::ALL {
