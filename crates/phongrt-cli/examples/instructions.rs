@@ -9,13 +9,15 @@
 //! `sphere-120` or an OBJ file, WHAT `phong`, `flat`, one of the packet modes above, or a
 //! [`TestOutcome`] name with `-` for spaces; or `-- SCENE shadow origin` for the tests of the
 //! patch each shadow ray starts on (no callgrind needed): the ray count, then one line per
-//! outcome of their full solve, `OUTCOME tests skipped`.
+//! outcome of their full solve, `OUTCOME tests skipped`; `-- SCENE shadow neighbour` the same
+//! for the other patches' tests past the hull, and what a rule leaving out a patch wholly
+//! under the origin's tangent plane would skip (`profile::neighbour_tests`).
 use std::path::Path;
 use std::process::ExitCode;
 
 use phongrt::phong::TestOutcome;
 use phongrt::scene::{load_obj, uv_sphere, LoadOptions, Mesh};
-use phongrt_cli::profile::{count_work, origin_tests, Counted, RayKind};
+use phongrt_cli::profile::{count_work, neighbour_tests, origin_tests, Counted, RayKind};
 
 /// The mesh of `scene`: the bench's sphere of `sphere-N` triangles, or an OBJ file's first mesh.
 fn mesh(scene: &str) -> Result<Mesh, String> {
@@ -35,11 +37,14 @@ fn main() -> ExitCode {
     let args: Vec<String> = std::env::args().skip(1).collect();
     let run = || -> Result<usize, String> {
         let [scene, kind, what] = args.as_slice() else {
-            return Err("usage: instructions SCENE primary|shadow phong|flat|PACKETS|OUTCOME|origin".into());
+            return Err(
+                "usage: instructions SCENE primary|shadow phong|flat|PACKETS|OUTCOME|origin|neighbour".into(),
+            );
         };
         let name = Path::new(scene).file_stem().map(|s| s.to_string_lossy().into_owned()).unwrap_or_default();
-        if what == "origin" {
-            let (rays, outcomes) = origin_tests(&name, &mesh(scene)?, 256).map_err(|e| e.to_string())?;
+        if what == "origin" || what == "neighbour" {
+            let tests = if what == "origin" { origin_tests } else { neighbour_tests };
+            let (rays, outcomes) = tests(&name, &mesh(scene)?, 256).map_err(|e| e.to_string())?;
             for o in outcomes {
                 println!("{} {} {}", o.outcome.name().replace(' ', "-"), o.tests, o.skipped);
             }
