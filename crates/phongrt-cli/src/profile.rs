@@ -621,15 +621,17 @@ fn counted_work(
     }
 }
 
-/// The tests of the patch a shadow ray starts on, by the outcome its full solve has: how many
-/// there are, and how many of them the origin skip leaves out.
+/// Shadow rays' patch tests of one kind ([`origin_tests`]: on the patch a ray starts on;
+/// [`neighbour_tests`]: on the others, past the hull), by the outcome their full solve has: how
+/// many there are, and how many of them a rule leaves out.
 #[derive(Clone, Copy, Debug)]
 pub struct OriginTests {
     /// The outcome of the full solve.
     pub outcome: TestOutcome,
-    /// Calls on the patch a ray starts on with this outcome.
+    /// Calls of this kind with this outcome.
     pub tests: usize,
-    /// Of those, the solves left out (proved not to hit).
+    /// Of those, the solves the rule leaves out (for [`origin_tests`], the origin skip's,
+    /// proved not to hit; for [`neighbour_tests`], a measurement's).
     pub skipped: usize,
 }
 

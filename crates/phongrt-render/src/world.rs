@@ -158,23 +158,22 @@ impl Surface {
     }
 
     /// As [`Surface::from_material`], with a one-line warning (naming `file` and the material)
-    /// for each value out of range and clamped: a `Kd` outside [0, 1] (above 1 a surface would
-    /// reflect more light than it receives), a negative `Ns`, a `Ks` above 1.
+    /// for each value out of range and clamped: a `Kd` not in [0, 1] (above 1 a surface would
+    /// reflect more light than it receives; a NaN is made 0), a negative `Ns`, a `Ks` above 1.
     pub fn from_material_checked(m: &sc::Material, file: &Path) -> (Self, Vec<String>) {
         let mut warnings = Vec::new();
-        let kd = if m.kd.is_finite() { m.kd } else { Vec3::ZERO };
-        let kd = if kd.min_element() < 0.0 || kd.max_element() > 1.0 {
+        let kd = if (m.kd.cmpge(Vec3::ZERO) & m.kd.cmple(Vec3::ONE)).all() {
+            m.kd
+        } else {
             warnings.push(format!(
-                "{}: material {:?}: Kd {} {} {} is outside [0, 1]; clamped",
+                "{}: material {:?}: Kd {} {} {} is not in [0, 1]; clamped",
                 file.display(),
                 m.name,
                 m.kd.x,
                 m.kd.y,
                 m.kd.z
             ));
-            kd.clamp(Vec3::ZERO, Vec3::ONE)
-        } else {
-            kd
+            Vec3::select(m.kd.is_nan_mask(), Vec3::ZERO, m.kd).clamp(Vec3::ZERO, Vec3::ONE)
         };
         let ks = if m.ks.is_finite() { m.ks.max(Vec3::ZERO) } else { Vec3::ZERO };
         let ks = if ks.max_element() > 1.0 {

@@ -91,9 +91,13 @@ fn negative_ns_and_ks_above_one_warn_once_naming_the_file_and_are_clamped() {
 }
 
 /// An MTL `Kd` outside [0, 1] (above 1 the surface would reflect more light than it receives;
-/// below 0, negative light) warns once, naming the file and the material, and is clamped.
+/// below 0, negative light) warns once, naming the file and the material, and is clamped; a
+/// NaN (from a material built in code: the MTL reader refuses one) warns too, and is made 0.
 #[test]
 fn kd_outside_0_to_1_warns_naming_the_file_and_is_clamped() {
+    let m = Material { name: "hot".into(), kd: Vec3::new(f32::NAN, 0.2, 0.5), ..glossy() };
+    let (s, w) = Surface::from_material_checked(&m, Path::new("a.obj"));
+    assert_eq!((w.len(), s.kd), (1, Vec3::new(0.0, 0.2, 0.5)), "{w:?}");
     let m = Material { name: "hot".into(), kd: Vec3::new(1.5, -0.2, 0.5), ..glossy() };
     let (s, w) = Surface::from_material_checked(&m, Path::new("models/a.obj"));
     assert_eq!(w.len(), 1, "{w:?}");

@@ -219,7 +219,7 @@ fn scene_file_errors_name_file_key_and_problem() {
 /// `mirror` and `specular` of an object and the ground's `kd` are refused above 1, as below 0,
 /// with the file, the key and the value on one line; 1 itself is accepted.
 #[test]
-fn scene_file_reflectances_above_1_are_one_line_errors_naming_the_key() {
+fn scene_file_reflectances_outside_0_to_1_are_one_line_errors_naming_the_key() {
     let p = Path::new("scenes/bright.toml");
     for (section, key, at) in [
         ("[[object]]\nname = \"*\"\n", "kd", "object[0].kd"),

@@ -459,9 +459,11 @@ mod tests {
     }
 
     /// A builder set up on one thread builds on another (it is `Send`: its settings closure
-    /// too), with the settings it was given.
+    /// too), with the settings it was given; and it is `Sync`.
     #[test]
     fn a_builder_made_on_one_thread_builds_on_another() {
+        fn send_and_sync<T: Send + Sync>() {}
+        send_and_sync::<WorldBuilder<'static>>();
         let device = Device::new().unwrap();
         let scene = two_spheres();
         let builder = World::builder(&device, &scene).settings(|i, _| {
