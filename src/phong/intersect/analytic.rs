@@ -411,10 +411,7 @@ fn lean_roots<T: Real>(
 ) -> Result<(Option<PatchHit<T>>, Ambiguity), Undecided> {
     let LeanMember { lines, near_multiple, .. } = member;
     // Compute the roots on its lines near the domain, gated by the distance to the ray.
-    // The gates read from the search's own (with `RootGates::new()` here instead, the 8-ray
-    // packets took 5 instructions a ray more, by callgrind: the inlining around this changed).
-    let s = Search::<T>::new(near_multiple);
-    let RootGates { size_tol, far, polish_band } = s.gates;
+    let RootGates { size_tol, far, polish_band } = RootGates::<T>::new();
     let tol2 = size_tol * size_tol;
     let (o, d) = (ray.o, ray.d);
     let inv_dd = T::ONE / d.dot(d);
