@@ -110,7 +110,21 @@ impl Scene {
         mesh: impl Into<Arc<PhongMesh>>,
         options: GeometryOptions,
     ) -> Result<u32, EmbreeError> {
-        self.attach_user(mesh.into(), options)
+        self.attach_shared_phong(mesh.into(), options)
+    }
+
+    /// [`Scene::attach_phong`] past the conversion: not generic, so that the Phong callbacks
+    /// are compiled once, in this crate. Reached from the generic `attach_phong` directly, they
+    /// were compiled again in each crate that called it, their code then depending on how that
+    /// crate was split into codegen units (8-ray packets 415.4 or 420.3 instructions a sphere
+    /// primary ray, by changes elsewhere in the calling crate).
+    #[inline(never)]
+    fn attach_shared_phong(
+        &mut self,
+        mesh: Arc<PhongMesh>,
+        options: GeometryOptions,
+    ) -> Result<u32, EmbreeError> {
+        self.attach_user(mesh, options)
     }
 }
 
@@ -156,10 +170,25 @@ pub unsafe fn attach_phong_raw(
     mesh: impl Into<Arc<PhongMesh>>,
     options: GeometryOptions,
 ) -> Result<RawPhongGeometry, EmbreeError> {
+    // SAFETY: this function's contract is `attach_shared_phong_raw`'s.
+    unsafe { attach_shared_phong_raw(scene, mesh.into(), options) }
+}
+
+/// [`attach_phong_raw`] past the conversion: not generic, so that the Phong callbacks are
+/// compiled once, in this crate (as [`Scene::attach_phong`]'s).
+///
+/// # Safety
+/// As [`attach_phong_raw`].
+#[inline(never)]
+unsafe fn attach_shared_phong_raw(
+    scene: sys::RTCScene,
+    mesh: Arc<PhongMesh>,
+    options: GeometryOptions,
+) -> Result<RawPhongGeometry, EmbreeError> {
     if scene.is_null() {
         return Err(EmbreeError::Null("scene"));
     }
-    let data = Box::new(UserData::new(mesh.into()));
+    let data = Box::new(UserData::new(mesh));
     // SAFETY: the caller guarantees `scene` is live. The data box lives in the returned handle,
     // which the caller keeps alive while the scene is traced (this function's contract); on an
     // error nothing is attached, so dropping the box then is sound.
