@@ -559,11 +559,13 @@ fn max_depth_is_bounded() {
 fn help_shows_every_default_examples_and_exit_codes() {
     let a = phongrt().args(["render", "--help"]).assert().success();
     let help = String::from_utf8(a.get_output().stdout.clone()).unwrap();
+    // The size and sample defaults are the library's, which the help writes out as text.
+    let lib = phongrt_render::RenderSettings::default();
+    for needle in [lib.width, lib.height, lib.spp].map(|d| format!("[default: {d}]")) {
+        assert!(help.contains(&needle), "{needle:?} missing from render --help:\n{help}");
+    }
     for needle in [
         "[default: 35]",
-        "[default: 800]",
-        "[default: 600]",
-        "[default: 1]",
         "[default: phong]",
         "[default: out.png]",
         "[default: all cores]",
