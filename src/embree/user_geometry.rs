@@ -1704,13 +1704,8 @@ impl UserPrimitives for UserTriangles {
         _origin: &LaneOrigins,
     ) -> [Option<PrimHit>; LANES] {
         std::array::from_fn(|i| {
-            let (org, dir) = rays.ray(i);
-            let (org, dir) = (Vec3::from(org), Vec3::from(dir));
-            if active[i] {
-                self.intersect(prim, org, dir, rays.tmin[i], rays.tmax[i])
-            } else {
-                None
-            }
+            let (org, dir) = active[i].then(|| rays.ray(i))?;
+            self.intersect(prim, org.into(), dir.into(), rays.tmin[i], rays.tmax[i])
         })
     }
 }

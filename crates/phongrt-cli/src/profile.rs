@@ -639,7 +639,7 @@ pub struct OriginTests {
 /// by outcome, the calls Embree makes on the patch each starts on: returns the ray count and the
 /// outcomes taken.
 pub fn origin_tests(name: &str, m: &Mesh, size: u32) -> Result<(usize, Vec<OriginTests>), BenchError> {
-    shadow_tests(name, m, size, |mesh, c| {
+    shadow_tests(name, m, size, |mesh, c, _| {
         let origin = c.origin.filter(|o| o.prim == c.prim)?;
         let mut solved = false;
         mesh.intersect_primitive_from(c.prim, Some(origin), c.org, c.dir, c.tnear, c.tfar, |_| solved = true);
@@ -654,28 +654,21 @@ pub fn origin_tests(name: &str, m: &Mesh, size: u32) -> Result<(usize, Vec<Origi
 /// the plane and the patch's exact range over it (`quadratic_range`) in f64, with a margin of
 /// 1e-9 of the normal's length for rounding.
 pub fn neighbour_tests(name: &str, m: &Mesh, size: u32) -> Result<(usize, Vec<OriginTests>), BenchError> {
-    use glam::DVec3;
     use phongrt::phong::patch::quadratic_range;
-    let wide = |x: V3<f32>| DVec3::new(x.x as f64, x.y as f64, x.z as f64);
-    shadow_tests(name, m, size, |mesh, c| {
-        let origin = c.origin.filter(|o| o.prim != c.prim)?;
-        let mut full = None;
-        mesh.intersect_primitive(c.prim, c.org, c.dir, c.tnear, c.tfar, |t| full = Some(t.outcome));
-        if full == Some(TestOutcome::HullReject) {
-            return None;
-        }
-        let (p, q) = (mesh.patches().get(origin.prim as usize)?, mesh.patches().get(c.prim as usize)?);
+    shadow_tests(name, m, size, |mesh, c, outcome| {
+        let origin = c.origin.filter(|o| o.prim != c.prim && outcome != TestOutcome::HullReject)?;
+        // The two patches in f64 (exactly: every field of an f32 patch converts).
+        let patch = |prim: u32| mesh.patches().get(prim as usize).map(|p| p.cast::<f64>());
+        let (p, q) = (patch(origin.prim)?, patch(c.prim)?);
         // Compute the origin patch's tangent plane at (u, v), in world space.
-        let [a, b, cc, d, e, f] = p.coefficients().map(wide);
         let (u, v) = (origin.u as f64, origin.v as f64);
-        let n = (a * (2.0 * u) + cc * v + d).cross(b * (2.0 * v) + cc * u + e);
-        let p0 = (a * (u * u) + b * (v * v) + cc * (u * v) + d * u + e * v + f) * p.scale() as f64
-            + wide(p.center());
+        let (pu, pv) = p.partials_local(u, v);
+        let (n, p0) = (pu.cross(pv), p.eval(u, v));
         // Compute the other patch's height over that plane, a quadratic in its (u, v).
-        let k = q.coefficients().map(|x| wide(x).dot(n) * q.scale() as f64);
-        let (lo, hi) = quadratic_range([k[0], k[1], k[2], k[3], k[4], k[5] + (wide(q.center()) - p0).dot(n)]);
+        let k = q.coefficients().map(|x| x.dot(n) * q.scale());
+        let (lo, hi) = quadratic_range([k[0], k[1], k[2], k[3], k[4], k[5] + (q.center() - p0).dot(n)]);
         // Compute the origin's height and the ray's rise.
-        let (org, dir) = (c.org.as_dvec3(), c.dir.as_dvec3());
+        let (org, dir) = (V3::from(c.org).cast::<f64>(), V3::from(c.dir).cast::<f64>());
         let (h, rise) = ((org - p0).dot(n), dir.dot(n));
         let margin = 1e-9 * n.length();
         Some(
@@ -685,13 +678,14 @@ pub fn neighbour_tests(name: &str, m: &Mesh, size: u32) -> Result<(usize, Vec<Or
     })
 }
 
-/// The calls of the bench's shadow rays that `rule` takes (`Some`), by the outcome of their
-/// full solve, and how many of those it says are left out (`Some(true)`).
+/// The calls of the bench's shadow rays that `rule` takes (`Some`), given each call and the
+/// outcome of its full solve, by that outcome, and how many of those it says are left out
+/// (`Some(true)`).
 fn shadow_tests(
     name: &str,
     m: &Mesh,
     size: u32,
-    rule: impl Fn(&PhongMesh, &Call) -> Option<bool>,
+    rule: impl Fn(&PhongMesh, &Call, TestOutcome) -> Option<bool>,
 ) -> Result<(usize, Vec<OriginTests>), BenchError> {
     let device = Device::new()?;
     let scenes = Scenes::new(&device, m, 1)?;
@@ -700,10 +694,11 @@ fn shadow_tests(
         TestOutcome::ALL.iter().map(|&outcome| OriginTests { outcome, tests: 0, skipped: 0 }).collect();
     let mesh = &scenes.mesh;
     for c in calls_of(&scenes.recording.0, &scenes.recording.1, &rays, RayKind::Shadow) {
-        let Some(skipped) = rule(mesh, &c) else { continue };
         let mut full = None;
         mesh.intersect_primitive(c.prim, c.org, c.dir, c.tnear, c.tfar, |t| full = Some(t.outcome));
-        let Some(k) = full.and_then(|o| TestOutcome::ALL.iter().position(|&x| x == o)) else { continue };
+        let Some(outcome) = full else { continue };
+        let Some(skipped) = rule(mesh, &c, outcome) else { continue };
+        let Some(k) = TestOutcome::ALL.iter().position(|&x| x == outcome) else { continue };
         out[k].tests += 1;
         out[k].skipped += skipped as usize;
     }
